@@ -1,0 +1,1 @@
+"""thermodrift's framework: registry, recordings, splits, metrics, studies, tracking and the CLI."""

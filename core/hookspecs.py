@@ -1,0 +1,46 @@
+"""The plugin surface of thermodrift: one hook per component kind, each receiving the registry.
+
+A plugin is a module named in the ``thermodrift`` entry-point group that implements any of these hooks::
+
+    from thermodrift.core.hookspecs import hookimpl
+
+    @hookimpl
+    def thermodrift_register_models(registry):
+        registry.add("model", "my_model", MyModel)
+"""
+
+import pluggy
+
+PROJECT = "thermodrift"
+hookspec = pluggy.HookspecMarker(PROJECT)
+hookimpl = pluggy.HookimplMarker(PROJECT)
+
+
+@hookspec
+def thermodrift_register_selectors(registry):
+    """Register sensitive-point selectors with ``registry.add("selector", name, cls)``."""
+
+
+@hookspec
+def thermodrift_register_models(registry):
+    """Register thermal-error models (temperatures in °C -> displacement in µm) with ``registry.add("model", ...)``."""
+
+
+@hookspec
+def thermodrift_register_optimizers(registry):
+    """Register Optuna sampler factories with ``registry.add("optimizer", name, factory)``; factories take ``seed``."""
+
+
+@hookspec
+def thermodrift_register_datasets(registry):
+    """Register recording factories with ``registry.add("dataset", name, factory)``; factories return a Recording."""
+
+
+@hookspec
+def thermodrift_register_mechanisms(registry):
+    """Register physics mechanisms (changes to a thermal network) with ``registry.add("mechanism", ...)``."""
+
+
+@hookspec
+def thermodrift_hydra_searchpaths(registry):
+    """Add Hydra config search paths (``registry.add_searchpath("pkg://my_plugin.conf")``) for the plugin's YAML."""

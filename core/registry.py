@@ -1,0 +1,184 @@
+"""Discover plugins through the ``thermodrift`` entry-point group and build components by name.
+
+Public API (stable)::
+
+    from thermodrift.core import registry
+    registry.names("model")                      # ['bp', 'mlr', 'persistence', ...]
+    registry.create("optimizer", "tpe", seed=0)  # an optuna.samplers.BaseSampler
+
+Built-in plugins are entry points of the ``thermodrift`` distribution, so they load through the same door as
+third-party ones. A distribution whose plugin fails to import or to register is reported by name
+(``registry.default().failures``) and the others still load; two components of one kind with the same name
+are an error that names both origins.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import inspect
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import pluggy
+
+from thermodrift.core import hookspecs
+from thermodrift.core.errors import PluginError
+
+KINDS = ("selector", "model", "optimizer", "dataset", "mechanism")
+_HOOKS = {
+    "selector": "thermodrift_register_selectors",
+    "model": "thermodrift_register_models",
+    "optimizer": "thermodrift_register_optimizers",
+    "dataset": "thermodrift_register_datasets",
+    "mechanism": "thermodrift_register_mechanisms",
+}
+# The Hydra config group that configures each kind (conf/<group>/<name>.yaml).
+CONFIG_GROUPS = {"selector": "selector", "model": "model", "optimizer": "optimizer", "dataset": "dataset"}
+
+
+@dataclass(frozen=True)
+class Component:
+    """A registered component: its kind, name, factory (class or callable) and origin distribution."""
+
+    kind: str
+    name: str
+    factory: Callable[..., Any]
+    origin: str
+    module: str
+
+    def test_params(self) -> list[dict]:
+        """Cheap parameter sets for the conformance suite (``factory.get_test_params()``, else ``[{}]``)."""
+        getter = getattr(self.factory, "get_test_params", None)
+        params = getter() if callable(getter) else [{}]
+        return list(params) or [{}]
+
+
+@dataclass
+class Registry:
+    """Components by kind and name, filled by the plugins' hooks. Hooks call :meth:`add`."""
+
+    components: dict[str, dict[str, Component]] = field(default_factory=lambda: {k: {} for k in KINDS})
+    searchpaths: list[str] = field(default_factory=list)
+    failures: dict[str, str] = field(default_factory=dict)  # "distribution (entry point)" -> error
+    _origin: str = "<unknown>"
+    _module: str = "<unknown>"
+
+    def add(self, kind: str, name: str, factory: Callable[..., Any]) -> None:
+        """Register ``factory`` (a class or callable) as component ``name`` of ``kind``."""
+        if kind not in KINDS:
+            raise PluginError(f"{self._origin}: unknown component kind {kind!r}; use one of {', '.join(KINDS)}")
+        if not callable(factory):
+            raise PluginError(f"{self._origin}: {kind} {name!r} is not callable")
+        known = self.components[kind].get(name)
+        if known is not None:
+            raise PluginError(
+                f"duplicate {kind} name {name!r}: registered by {known.origin} ({known.module}) "
+                f"and by {self._origin} ({self._module}); rename one of them")
+        self.components[kind][name] = Component(kind, name, factory, self._origin, self._module)
+
+    def add_searchpath(self, path: str) -> None:
+        """Add a Hydra config search path such as ``pkg://my_plugin.conf``."""
+        if path not in self.searchpaths:
+            self.searchpaths.append(path)
+
+    def names(self, kind: str) -> list[str]:
+        """Sorted component names of ``kind``."""
+        return sorted(self._of(kind))
+
+    def get(self, kind: str, name: str) -> Component:
+        """The registered component, or a one-line error listing the known names."""
+        comps = self._of(kind)
+        if name not in comps:
+            raise PluginError(f"unknown {kind} {name!r}; known: {', '.join(sorted(comps)) or 'none'}")
+        return comps[name]
+
+    def create(self, kind: str, name: str, **params: Any) -> Any:
+        """Build component ``name`` of ``kind`` with ``params`` (for optimizers pass ``seed``)."""
+        factory = self.get(kind, name).factory
+        if kind == "optimizer" and "seed" in params and not _accepts(factory, "seed"):
+            raise PluginError(f"optimizer {name!r} factory does not accept a seed")
+        return factory(**params)
+
+    def _of(self, kind: str) -> dict[str, Component]:
+        if kind not in KINDS:
+            raise PluginError(f"unknown component kind {kind!r}; use one of {', '.join(KINDS)}")
+        return self.components[kind]
+
+
+def _accepts(factory: Callable[..., Any], param: str) -> bool:
+    try:
+        sig = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return True
+    return param in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+
+
+def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Registry:
+    """Load every plugin of the ``thermodrift`` entry-point group into a fresh :class:`Registry`.
+
+    Each plugin's hooks are called one plugin at a time so that every component records the distribution
+    it came from and a failing plugin cannot stop the others.
+    """
+    if entry_points is None:
+        entry_points = sorted(importlib.metadata.entry_points(group=hookspecs.PROJECT),
+                              key=lambda ep: (ep.dist.name if ep.dist else "", ep.name))
+    manager = pluggy.PluginManager(hookspecs.PROJECT)
+    manager.add_hookspecs(hookspecs)
+    registry = Registry()
+    plugins: list[tuple[str, str, object]] = []
+    for ep in entry_points:
+        origin = ep.dist.name if ep.dist else "<unknown>"
+        try:
+            module = ep.load()
+            manager.register(module, name=f"{origin}:{ep.name}")
+        except Exception as exc:  # a broken third-party distribution must not stop the rest
+            registry.failures[f"{origin} ({ep.name})"] = _one_line(exc)
+            continue
+        plugins.append((origin, ep.value, module))
+    manager.check_pending()
+    for origin, module_name, module in plugins:
+        registry._origin, registry._module = origin, module_name
+        for hook_name in (*_HOOKS.values(), "thermodrift_hydra_searchpaths"):
+            impl = getattr(module, hook_name, None)
+            if impl is None:
+                continue
+            try:
+                impl(registry=registry)
+            except PluginError as exc:
+                if str(exc).startswith("duplicate"):
+                    raise
+                registry.failures[f"{origin} ({module_name})"] = _one_line(exc)
+            except Exception as exc:  # same rule as for import failures
+                registry.failures[f"{origin} ({module_name})"] = _one_line(exc)
+    registry._origin = registry._module = "<unknown>"
+    return registry
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(f"{type(exc).__name__}: {exc}".split())
+
+
+_DEFAULT: Registry | None = None
+
+
+def default() -> Registry:
+    """The process-wide registry, loaded on first use."""
+    global _DEFAULT
+    if _DEFAULT is None:
+        _DEFAULT = load()
+    return _DEFAULT
+
+
+def names(kind: str) -> list[str]:
+    """Sorted names of the registered components of ``kind`` ("selector", "model", "optimizer", ...)."""
+    return default().names(kind)
+
+
+def create(kind: str, name: str, **params: Any) -> Any:
+    """Build a registered component; ``create("optimizer", name, seed=0)`` returns an Optuna sampler."""
+    return default().create(kind, name, **params)
+
+
+def get(kind: str, name: str) -> Component:
+    """The registered :class:`Component` of ``kind`` named ``name``."""
+    return default().get(kind, name)

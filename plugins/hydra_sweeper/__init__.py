@@ -1,0 +1,1 @@
+"""Hydra sweeper plugin: sweeps any Hydra app with thermodrift's Optuna samplers."""

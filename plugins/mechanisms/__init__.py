@@ -1,0 +1,1 @@
+"""Built-in mechanism plugins, one module per method."""

@@ -1,0 +1,1 @@
+"""Built-in optimizer plugins, one module per method."""
