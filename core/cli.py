@@ -1,0 +1,64 @@
+"""The ``thermodrift`` command line: one verb per module, imported only when used.
+
+Each verb module exposes ``configure(parser)`` and ``run(args) -> int``. Bad input (:class:`InputError`) is
+reported as one line on stderr with exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+from thermodrift.core.errors import InputError, PluginError
+
+# verb -> (module, one-line help). `run` is the Hydra app and parses its own overrides.
+VERBS = {
+    "plugins": ("thermodrift.core.plugins_cmd", "List every registered component by kind with its origin."),
+    "validate": ("thermodrift.core.validate_cmd", "Check a recording (table + manifest) and print a summary."),
+    "run": ("thermodrift.core.app", "Run experiments (Hydra overrides; -m for a grid)."),
+    "simulate": ("thermodrift.core.physics.simulate", "Write a simulated recording (table + manifest + truth)."),
+    "calibrate": ("thermodrift.core.physics.calibrate_cmd", "Calibrate a thermal network to a recording."),
+    "bench": ("thermodrift.core.bench_cmd", "Run the benchmarks (samplers, physics)."),
+}
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``thermodrift`` console script."""
+    os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "run":  # Hydra owns the rest of the command line
+        from thermodrift.core import app
+        return _guard(lambda: app.main(argv[1:]))
+    parser = argparse.ArgumentParser(prog="thermodrift", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
+    for verb, (module_name, help_text) in VERBS.items():
+        if verb == "run":
+            sub.add_parser("run", help=help_text, add_help=False)
+            continue
+        vparser = sub.add_parser(verb, help=help_text, description=help_text)
+        vparser.set_defaults(_module=module_name)
+    # Only the chosen verb's module is imported, so `thermodrift --help` stays fast.
+    if not argv or argv[0] not in VERBS:
+        parser.parse_args(argv)
+        return 2
+    module = importlib.import_module(VERBS[argv[0]][0])
+    module.configure(sub.choices[argv[0]])
+    args = parser.parse_args(argv)
+    return _guard(lambda: module.run(args))
+
+
+def _guard(fn) -> int:
+    try:
+        return int(fn() or 0)
+    except (InputError, PluginError) as exc:
+        print(f"thermodrift: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("thermodrift: interrupted; completed trials are kept in the Optuna storage", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

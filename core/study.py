@@ -1,0 +1,232 @@
+"""One job: recording → split → select sensors → Optuna study tunes the model → refit → evaluate vs baselines.
+
+The study tunes on an inner validation fold inside the training part (``splits.inner_fold``), so the held-out
+part is touched once, by the refit best model and by the persistence and MLR baselines beside it.
+Failed trials are recorded as FAIL and the study goes on; a re-run with the same storage resumes and keeps
+completed trials (only the missing number of trials is run).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+import optuna
+import pandas as pd
+
+from thermodrift.core import registry, search_space, splits, training
+from thermodrift.core.errors import InputError
+from thermodrift.core.metrics import evaluate
+from thermodrift.plugins.models.persistence import LAG_PREFIX
+
+INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
+
+
+@dataclass
+class JobSpec:
+    """What one job runs: component names with their constructor params, and the study settings."""
+
+    dataset: str
+    model: str
+    selector: str = "all"
+    optimizer: str = "tpe"
+    split: str = "condition_holdout"
+    dataset_params: dict = field(default_factory=dict)
+    model_params: dict = field(default_factory=dict)
+    model_search_space: dict | None = None  # None: the model's own default
+    selector_params: dict = field(default_factory=dict)
+    optimizer_params: dict = field(default_factory=dict)
+    split_params: dict = field(default_factory=dict)
+    targets: list[str] | None = None  # displacement channels (None: all)
+    input_roles: tuple[str, ...] = INPUT_ROLES
+    baselines: tuple[str, ...] = ("persistence", "mlr")
+    seed: int = 0
+    n_trials: int = 20
+    timeout_s: float | None = None
+    storage: str | None = "sqlite:///optuna.db"
+    study_name: str | None = None
+    progress: bool = True
+
+    def default_study_name(self) -> str:
+        """Stable name from everything that defines the search except the budget, so re-runs resume."""
+        key = {k: v for k, v in self.__dict__.items() if k not in ("n_trials", "timeout_s", "storage", "study_name",
+                                                                   "progress", "baselines")}
+        digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:10]
+        return f"{self.dataset}-{self.selector}-{self.model}-{self.optimizer}-{self.split}-s{self.seed}-{digest}"
+
+
+@dataclass
+class FoldResult:
+    """Held-out predictions and metrics (µm) of the model and baselines on one fold."""
+
+    name: str
+    time_s: np.ndarray
+    y_true: pd.DataFrame
+    predictions: dict[str, np.ndarray]  # "model" and each baseline name -> (n, k) µm
+    metrics: dict[str, dict[str, dict[str, float]]]  # same keys -> channel -> metric -> value
+
+
+@dataclass
+class JobResult:
+    spec: JobSpec
+    study: optuna.Study
+    selected: list[str]
+    best_params: dict[str, Any]
+    folds: list[FoldResult]
+    model: Any  # refit on the last fold's training part
+    protocol: str
+    notes: list[str] = field(default_factory=list)
+
+    def summary_metrics(self, who: str = "model") -> dict[str, float]:
+        """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
+        names = self.folds[0].metrics[who]["mean"].keys()
+        return {m: float(np.mean([f.metrics[who]["mean"][m] for f in self.folds])) for m in names}
+
+
+class Job:
+    """Runs a :class:`JobSpec`. ``callbacks`` are Optuna callbacks (e.g. the MLflow trial logger)."""
+
+    def __init__(self, spec: JobSpec, callbacks: list[Callable] | None = None):
+        self.spec = spec
+        self.callbacks = list(callbacks or [])
+
+    def run(self, recording=None) -> JobResult:
+        """Run the job on ``recording`` (default: the spec's dataset from the registry)."""
+        spec = self.spec
+        if recording is None:
+            recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+        targets = self._targets(recording)
+        split = splits.make_split(spec.split, **_with_seed(splits.SPLITS[spec.split], spec.split_params, spec.seed))
+        folds = split.folds(recording)
+        features = [c for role in spec.input_roles for c in recording.columns(role)]
+        if not features:
+            raise InputError(f"{recording.source}: no input channel with roles {list(spec.input_roles)}")
+        X_all = recording.data[features]
+        y_all = recording.data[targets]
+        lags = y_all.shift(1).bfill().add_prefix(LAG_PREFIX)
+
+        tune = folds[-1]
+        selector = registry.create("selector", spec.selector,
+                                   **_with_seed(registry.get("selector", spec.selector).factory,
+                                                spec.selector_params, spec.seed))
+        selected = selector.fit(X_all.iloc[tune.train], y_all.iloc[tune.train]).selected_
+
+        def inputs(model_name: str, rows: np.ndarray) -> pd.DataFrame:
+            cls = registry.get("model", model_name).factory
+            X = X_all.iloc[rows][selected]
+            extra = [c for role in getattr(cls, "extra_input_roles", ()) for c in recording.columns(role)
+                     if c not in selected]
+            if extra:
+                X = pd.concat([X, recording.data.iloc[rows][extra]], axis=1)
+            if getattr(cls, "uses_target_history", False):
+                X = pd.concat([X, lags.iloc[rows]], axis=1)
+            return X
+
+        train_rec = recording.select(tune.train)
+        inner = splits.inner_fold(train_rec)
+        inner_train, inner_val = tune.train[inner.train], tune.train[inner.test]
+        space = (spec.model_search_space if spec.model_search_space is not None
+                 else registry.get("model", spec.model).factory.search_space())
+        search_space.distributions(space)  # a malformed space fails here, before any trial
+
+        def objective(trial: optuna.Trial) -> float:
+            params = {**spec.model_params, **search_space.suggest(trial, space)}
+            model = self._model(spec.model, params)
+            try:
+                with training.reporting(trial):
+                    model.fit(inputs(spec.model, inner_train), y_all.iloc[inner_train])
+            except training.DivergedError as exc:
+                trial.set_user_attr("diverged", True)
+                trial.set_user_attr("fail_reason", str(exc))
+                raise
+            pred = model.predict(inputs(spec.model, inner_val))
+            rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
+            if not np.isfinite(rmse):
+                raise ValueError(f"validation RMSE is {rmse}")
+            for key, value in getattr(model, "train_report_", {}).items():
+                if isinstance(value, (int, float)):
+                    trial.set_user_attr(f"train/{key}", float(value))
+            return rmse
+
+        optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
+        study = self._study(space)
+        done = sum(t.state in FINISHED for t in study.trials)
+        budget = 1 if not space else spec.n_trials
+        if done < budget:
+            study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
+                           callbacks=self.callbacks, show_progress_bar=spec.progress)
+        complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+        if not complete:
+            reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason") for t in study.trials}
+            raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
+                             f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
+        best = {**spec.model_params, **study.best_params}
+
+        results, model = [], None
+        for fold in folds:
+            preds: dict[str, np.ndarray] = {}
+            for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
+                m = self._model(name, params).fit(inputs(name, fold.train), y_all.iloc[fold.train])
+                preds[who] = m.predict(inputs(name, fold.test))
+                if who == "model":
+                    model = m
+            y_test = y_all.iloc[fold.test]
+            results.append(FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
+                                      {who: evaluate(y_test, p) for who, p in preds.items()}))
+        return JobResult(spec, study, selected, best, results, model, split.protocol,
+                         notes=list(getattr(recording, "notes", [])))
+
+    def _targets(self, recording) -> list[str]:
+        available = recording.columns("displacement")
+        if not available:
+            raise InputError(f"{recording.source}: the recording has no displacement channel to model")
+        targets = list(self.spec.targets or available)
+        missing = [t for t in targets if t not in available]
+        if missing:
+            raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
+                             hint=f"choose from {available}")
+        return targets
+
+    def _model(self, name: str, params: dict):
+        factory = registry.get("model", name).factory
+        return registry.create("model", name, **_with_seed(factory, params, self.spec.seed))
+
+    def _study(self, space: dict) -> optuna.Study:
+        spec = self.spec
+        factory = registry.get("optimizer", spec.optimizer).factory
+        params = dict(spec.optimizer_params)
+        if _accepts(factory, "n_trials"):
+            params.setdefault("n_trials", spec.n_trials)
+        sampler = registry.create("optimizer", spec.optimizer, seed=spec.seed, **params)
+        storage = None
+        if spec.storage:
+            # Heartbeats let a later run mark the trials of a killed run as failed instead of running forever.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                storage = optuna.storages.RDBStorage(spec.storage, heartbeat_interval=30, grace_period=90)
+        return optuna.create_study(study_name=spec.study_name or spec.default_study_name(), storage=storage,
+                                   sampler=sampler, direction="minimize", load_if_exists=True)
+
+
+def _accepts(factory: Callable, param: str) -> bool:
+    try:
+        return param in inspect.signature(factory).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+def _with_seed(factory: Callable, params: dict, seed: int) -> dict:
+    """``params`` plus the run's seed under the name the component uses for it, if it takes one."""
+    out = dict(params)
+    for key in ("random_state", "seed"):
+        if _accepts(factory, key):
+            out.setdefault(key, seed)
+            break
+    return out
+

@@ -1,0 +1,38 @@
+"""Model ``mlr``: multiple linear regression of displacement (µm) on temperatures (°C), optionally ridge.
+
+The standard industrial thermal-error model and the baseline shown beside every other model.
+"""
+
+import numpy as np
+from sklearn.linear_model import Ridge
+
+from thermodrift.core.components import ThermalModel
+from thermodrift.core.hookspecs import hookimpl
+
+
+class MLR(ThermalModel):
+    """Least squares y = b + Σ a_i T_i (µm, µm/K); ``alpha`` > 0 adds an L2 penalty on standardised inputs."""
+
+    def __init__(self, alpha: float = 0.0):
+        self.alpha = alpha
+
+    @classmethod
+    def get_test_params(cls):
+        return [{"alpha": 0.0}, {"alpha": 1.0}]
+
+    @classmethod
+    def search_space(cls):
+        return {"alpha": {"type": "float", "low": 1e-6, "high": 100.0, "log": True}}
+
+    def _fit(self, X, y):
+        x = X.to_numpy(dtype=float)
+        self.x_mean_, self.x_scale_ = x.mean(axis=0), x.std(axis=0) + 1e-12
+        self.regressor_ = Ridge(alpha=self.alpha, solver="svd").fit((x - self.x_mean_) / self.x_scale_, y)
+
+    def _predict(self, X):
+        return self.regressor_.predict((X.to_numpy(dtype=float) - self.x_mean_) / self.x_scale_)
+
+
+@hookimpl
+def thermodrift_register_models(registry):
+    registry.add("model", "mlr", MLR)
