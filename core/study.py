@@ -18,6 +18,7 @@ from typing import Any, Callable
 import numpy as np
 import optuna
 import pandas as pd
+import torch
 
 from thermodrift.core import registry, search_space, splits, training
 from thermodrift.core.errors import InputError
@@ -52,11 +53,12 @@ class JobSpec:
     storage: str | None = "sqlite:///optuna.db"
     study_name: str | None = None
     progress: bool = True
+    threads: int = 1  # torch CPU threads; 1 is fastest for small thermal networks
 
     def default_study_name(self) -> str:
         """Stable name from everything that defines the search except the budget, so re-runs resume."""
         key = {k: v for k, v in self.__dict__.items() if k not in ("n_trials", "timeout_s", "storage", "study_name",
-                                                                   "progress", "baselines")}
+                                                                   "progress", "baselines", "threads")}
         digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:10]
         return f"{self.dataset}-{self.selector}-{self.model}-{self.optimizer}-{self.split}-s{self.seed}-{digest}"
 
@@ -149,12 +151,13 @@ class Job:
             rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
             if not np.isfinite(rmse):
                 raise ValueError(f"validation RMSE is {rmse}")
-            for key, value in getattr(model, "train_report_", {}).items():
-                if isinstance(value, (int, float)):
-                    trial.set_user_attr(f"train/{key}", float(value))
+            report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
+            for key, value in (report.metrics() if report is not None else {}).items():
+                trial.set_user_attr(f"train/{key}", value)
             return rmse
 
         optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
+        torch.set_num_threads(spec.threads)
         study = self._study(space)
         done = sum(t.state in FINISHED for t in study.trials)
         budget = 1 if not space else spec.n_trials

@@ -1,0 +1,760 @@
+"""Recordings: a table (CSV, Parquet or XLSX) plus a YAML manifest -> channels by role in canonical units.
+
+A manifest names the time column and gives every used column a role and a unit::
+
+    time: time_s                 # seconds; or time_unit: s|ms|min|h; or timestamps (converted to s from start)
+    sheet: data                  # XLSX only; default: the first sheet
+    channels:
+      spindle_rpm: {role: speed, unit: rpm}
+      T_front_bearing: {role: temperature, unit: degC, location: front_bearing}
+      disp_z_um: {role: displacement, unit: um, axis: z}
+
+:func:`load_recording` checks everything a user can get wrong and raises :class:`InputError` with one line
+naming the file, the column and the row. Row numbers are those a user sees in a spreadsheet or a text editor:
+the header is row 1, the first data row is row 2. Isolated missing values (at most ``MAX_NAN_RUN`` in a row)
+are interpolated linearly in time (at either end of the table: the nearest value) and noted; longer gaps are
+errors. Columns the manifest does not name are
+ignored with a note in :attr:`Recording.notes`.
+
+Canonical units in :attr:`Recording.data`: temperatures (temperature, ambient, coolant_inlet, coolant_outlet)
+in degC, displacement in um, speed in rpm, cutting_power in W, axis_velocity in mm_min; condition is a label.
+"""
+
+from __future__ import annotations
+
+import csv
+import difflib
+import math
+import os
+import re
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+import pandas as pd
+import yaml
+
+from thermodrift.core.errors import InputError
+
+ROLES = ("speed", "temperature", "displacement", "ambient", "coolant_inlet", "coolant_outlet",
+         "cutting_power", "axis_velocity", "condition", "ignore")
+TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+
+# Per role: canonical unit and accepted units as (scale, offset) with canonical = value * scale + offset.
+_TEMPERATURE = ("degC", {"degC": (1.0, 0.0), "°C": (1.0, 0.0), "K": (1.0, -273.15)})
+_UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
+    **{role: _TEMPERATURE for role in TEMPERATURE_ROLES},
+    "displacement": ("um", {"um": (1.0, 0.0), "µm": (1.0, 0.0), "μm": (1.0, 0.0), "mm": (1000.0, 0.0)}),
+    "speed": ("rpm", {"rpm": (1.0, 0.0), "rad_s": (60.0 / (2.0 * math.pi), 0.0),
+                      "rad/s": (60.0 / (2.0 * math.pi), 0.0)}),
+    "cutting_power": ("W", {"W": (1.0, 0.0), "kW": (1000.0, 0.0)}),
+    "axis_velocity": ("mm_min", {"mm_min": (1.0, 0.0), "mm/min": (1.0, 0.0),
+                                 "m_min": (1000.0, 0.0), "m/min": (1000.0, 0.0)}),
+}
+_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
+_MANIFEST_KEYS = ("time", "time_unit", "sheet", "channels", "description")
+_TABLE_SUFFIXES = (".csv", ".parquet", ".xlsx")
+# Roles whose zero variance means a dead sensor or nothing to learn (a constant speed is one condition).
+_NONCONSTANT_ROLES = ("temperature", "displacement")
+_SINGLE_ROLES = ("speed", "condition")
+
+MIN_ROWS = 10
+MAX_NAN_RUN = 3  # longest run of missing samples that is interpolated; longer gaps are errors
+TIME_INDEX = "time_s"
+
+# Working-condition detection from the speed schedule.
+_MEDIAN_WINDOW = 5         # samples; removes isolated spikes before levels are found
+_LEVEL_TOL_RPM = 25.0      # two speeds closer than max(this, _LEVEL_TOL_REL * max|speed|) are one level
+_LEVEL_TOL_REL = 0.02
+_MIN_LEVEL_S = 120.0       # shorter level segments (ramps, blips) join the next level
+_MIN_LEVEL_SAMPLES = 3
+_LABEL_STEP_RPM = 10       # labels name the level rounded to this, so noise does not change them
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One column of a recording: its role, its canonical unit (None for labels) and free metadata."""
+
+    name: str
+    role: str
+    unit: str | None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+class Recording:
+    """A time series of channels by role, indexed by time in s, in canonical units.
+
+    ``data`` holds exactly the columns named by ``channels``; its index is time in s (float, named
+    ``time_s``) starting where the table starts. ``notes`` records what loading did silently (ignored
+    columns, interpolated samples, irregular sampling).
+    """
+
+    def __init__(self, data: pd.DataFrame, channels: dict[str, Channel], source: str = "<memory>",
+                 notes: Iterable[str] | None = None):
+        missing = [name for name in channels if name not in data.columns]
+        extra = [str(col) for col in data.columns if col not in channels]
+        if missing or extra:
+            raise ValueError(f"data and channels disagree: channels without data {missing}, "
+                             f"data without channel {extra}")
+        for name, ch in channels.items():
+            if ch.name != name:
+                raise ValueError(f"channel {ch.name!r} is filed under the name {name!r}")
+            if ch.role not in ROLES or ch.role == "ignore":
+                raise ValueError(f"channel {name!r} has role {ch.role!r}; use one of {', '.join(ROLES[:-1])}")
+        if TIME_INDEX in channels:
+            raise ValueError(f"{TIME_INDEX!r} is the time index and cannot be a channel name")
+        self.data = data.set_axis(pd.Index(np.asarray(data.index, dtype=float), name=TIME_INDEX), axis=0)
+        self.channels = dict(channels)
+        self.source = source
+        self.notes: list[str] = list(notes or [])
+        self._labels: pd.Series | None = None
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def __repr__(self) -> str:
+        roles = ", ".join(f"{len(self.columns(r))} {r}" for r in ROLES if self.columns(r))
+        return f"Recording({len(self)} rows, {self.duration_s / 3600:.2f} h, {roles}, source={self.source!r})"
+
+    @property
+    def time_s(self) -> np.ndarray:
+        """Sample times in s."""
+        return self.data.index.to_numpy()
+
+    @property
+    def duration_s(self) -> float:
+        """Last minus first sample time in s."""
+        t = self.time_s
+        return float(t[-1] - t[0]) if len(t) else 0.0
+
+    @property
+    def sampling_interval_s(self) -> float:
+        """Median sampling interval in s (nan for fewer than two rows)."""
+        return float(np.median(np.diff(self.time_s))) if len(self) > 1 else float("nan")
+
+    @property
+    def is_regular(self) -> bool:
+        """True when every interval is within 1 % of the median interval."""
+        dt = np.diff(self.time_s)
+        return bool(len(dt)) and bool(np.all(np.abs(dt - np.median(dt)) <= 0.01 * np.median(dt)))
+
+    def columns(self, role: str) -> list[str]:
+        """Names of the channels with ``role``, in table order."""
+        if role not in ROLES:
+            raise ValueError(f"unknown role {role!r}; use one of {', '.join(ROLES)}")
+        return [str(c) for c in self.data.columns if self.channels[c].role == role]
+
+    def frame(self, role: str) -> pd.DataFrame:
+        """The channels with ``role`` as a DataFrame indexed by time in s."""
+        return self.data[self.columns(role)]
+
+    @property
+    def temperatures(self) -> pd.DataFrame:
+        """Temperature channels in °C (ambient and coolant are separate roles)."""
+        return self.frame("temperature")
+
+    @property
+    def displacements(self) -> pd.DataFrame:
+        """Displacement (drift) channels in µm."""
+        return self.frame("displacement")
+
+    @property
+    def speed(self) -> pd.Series | None:
+        """Spindle speed in rpm, or None."""
+        cols = self.columns("speed")
+        return self.data[cols[0]] if cols else None
+
+    def conditions(self) -> pd.Series:
+        """Working-condition label per sample: the condition channel, else detected from the speed schedule.
+
+        Detection (:func:`detect_conditions`): a new condition starts at each change to another nonzero speed
+        level; a stop joins the condition before it; leading idle time is ``c00_idle``. Labels look like
+        ``c01_1250rpm``. Without speed or condition channel every sample is ``c01_all``.
+        """
+        if self._labels is None:
+            cond = self.columns("condition")
+            if cond:
+                labels = self.data[cond[0]].astype(str).to_numpy()
+            elif self.speed is not None:
+                labels = detect_conditions(self.time_s, self.speed.to_numpy())
+            else:
+                labels = np.full(len(self), "c01_all", dtype=object)
+            self._labels = pd.Series(labels, index=self.data.index, name="condition", dtype=object)
+        return self._labels
+
+    def condition_spans(self) -> pd.DataFrame:
+        """One row per contiguous run of a condition: ``label``, ``start_s`` and ``end_s`` (half-open).
+
+        ``end_s`` is the start of the next run, or the last time plus one sampling interval.
+        """
+        labels = self.conditions().to_numpy()
+        t = self.time_s
+        if not len(t):
+            return pd.DataFrame({"label": [], "start_s": [], "end_s": []})
+        starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+        step = self.sampling_interval_s if len(t) > 1 else 0.0
+        ends = np.r_[t[starts[1:]], t[-1] + step]
+        return pd.DataFrame({"label": labels[starts], "start_s": t[starts], "end_s": ends})
+
+    def select(self, rows: Any) -> Recording:
+        """The recording restricted to ``rows`` (boolean mask or positions); condition labels are kept."""
+        mask = np.asarray(rows)
+        if mask.dtype == bool and len(mask) != len(self):
+            raise ValueError(f"boolean mask has {len(mask)} entries for {len(self)} rows")
+        positions = np.flatnonzero(mask) if mask.dtype == bool else mask.astype(int)
+        sub = Recording(self.data.iloc[positions], self.channels, self.source, self.notes)
+        sub._labels = self.conditions().iloc[positions]
+        return sub
+
+    def write(self, table_path: str | os.PathLike, manifest_path: str | os.PathLike) -> None:
+        """Write the table (CSV, Parquet or XLSX by suffix; time column ``time_s``) and its manifest (YAML)."""
+        table = Path(table_path)
+        frame = self.data.reset_index()
+        suffix = table.suffix.lower()
+        if suffix == ".csv":
+            frame.to_csv(table, index=False)
+        elif suffix == ".parquet":
+            frame.to_parquet(table, index=False)
+        elif suffix == ".xlsx":
+            frame.to_excel(table, index=False, sheet_name="data")
+        else:
+            raise InputError(f"cannot write table type {suffix!r}", file=str(table),
+                             hint="use .csv, .parquet or .xlsx")
+        channels = {}
+        for name in self.data.columns:
+            ch = self.channels[name]
+            spec = {"role": ch.role} if ch.unit is None else {"role": ch.role, "unit": ch.unit}
+            channels[str(name)] = {**spec, **ch.meta}
+        manifest = {"time": TIME_INDEX, "channels": channels}
+        text = yaml.safe_dump(manifest, allow_unicode=True, sort_keys=False, default_flow_style=None)
+        Path(manifest_path).write_text(f"# manifest for {table.name}\n{text}", encoding="utf-8")
+
+    def summary(self) -> str:
+        """Multi-line overview: file, rows, duration, sampling, channels by role, working conditions, notes."""
+        lines = [f"file: {self.source}", f"rows: {len(self)}"]
+        t = self.time_s
+        if len(t):
+            lines.append(f"duration: {self.duration_s / 3600:.3f} h ({t[0]:g} s to {t[-1]:g} s)")
+        if len(t) > 1:
+            dt = np.diff(t)
+            regular = "regular" if self.is_regular else f"irregular, {dt.min():g} s to {dt.max():g} s"
+            lines.append(f"sampling interval: {self.sampling_interval_s:g} s ({regular})")
+        lines.append("channels:")
+        for role in ROLES:
+            cols = self.columns(role) if role != "ignore" else []
+            if cols:
+                lines.append(f"  {role} ({len(cols)}):")
+                lines.extend(f"    {self._describe(c)}" for c in cols)
+        source = (f"column {self.columns('condition')[0]!r}" if self.columns("condition")
+                  else f"speed {self.columns('speed')[0]!r}" if self.columns("speed") else "no speed channel")
+        spans = self.condition_spans()
+        lines.append(f"working conditions ({spans['label'].nunique()}, from {source}):")
+        width = max((len(str(s)) for s in spans["label"]), default=0)
+        lines.extend(f"  {row.label:<{width}}  {row.start_s / 3600:8.3f} h to {row.end_s / 3600:8.3f} h"
+                     f"  ({row.start_s:g} s to {row.end_s:g} s)" for row in spans.itertuples())
+        if self.notes:
+            lines.append("notes:")
+            lines.extend(f"  - {note}" for note in self.notes)
+        return "\n".join(lines)
+
+    def _describe(self, name: str) -> str:
+        ch = self.channels[name]
+        meta = "".join(f", {k}={v}" for k, v in ch.meta.items())
+        if ch.unit is None:
+            values = self.data[name]
+            return f"{name}: {values.nunique()} labels{meta}"
+        values = self.data[name].to_numpy()
+        return f"{name} [{ch.unit}]: {values.min():.4g} to {values.max():.4g}{meta}"
+
+
+def detect_conditions(time_s: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
+    """Working-condition labels (object array) from a piecewise-constant speed schedule in rpm.
+
+    The speed is median-filtered (``_MEDIAN_WINDOW`` samples) and cut into levels that differ by more than
+    max(25 rpm, 2 % of the top speed); levels shorter than 120 s (ramps, blips) join the next level. A new
+    condition starts at each change to another nonzero level; a stop joins the condition before it; a
+    restart at the same level continues it; leading idle time is ``c00_idle``. Labels name the level
+    rounded to 10 rpm.
+    """
+    t = np.asarray(time_s, dtype=float)
+    v = _median_filter(np.asarray(speed_rpm, dtype=float), _MEDIAN_WINDOW)
+    n = len(v)
+    if n == 0:
+        return np.array([], dtype=object)
+    tol = max(_LEVEL_TOL_RPM, _LEVEL_TOL_REL * float(np.abs(v).max()))
+    dt = float(np.median(np.diff(t))) if n > 1 else 1.0
+    min_len = max(_MIN_LEVEL_SAMPLES, int(math.ceil(_MIN_LEVEL_S / dt))) if dt > 0 else _MIN_LEVEL_SAMPLES
+    segments = _merge_short(_level_starts(v, tol), n, min_len)
+    # Adjacent segments at the same level (after ramps were absorbed) are one segment.
+    merged: list[list[int]] = []
+    for a, b in segments:
+        if merged and abs(np.median(v[a:b]) - np.median(v[merged[-1][0]:merged[-1][1]])) <= tol:
+            merged[-1][1] = b
+        else:
+            merged.append([a, b])
+    labels = np.empty(n, dtype=object)
+    current, level, k = "c00_idle", None, 0
+    for a, b in merged:
+        seg_level = float(np.median(v[a:b]))
+        if abs(seg_level) > tol and (level is None or abs(seg_level - level) > tol):
+            k, level = k + 1, seg_level
+            current = f"c{k:02d}_{_LABEL_STEP_RPM * round(seg_level / _LABEL_STEP_RPM)}rpm"
+        labels[a:b] = current
+    return labels
+
+
+def _median_filter(x: np.ndarray, window: int) -> np.ndarray:
+    if len(x) < window:
+        return x.copy()
+    half = window // 2
+    padded = np.pad(x, half, mode="edge")
+    return np.median(np.lib.stride_tricks.sliding_window_view(padded, window), axis=1)
+
+
+def _level_starts(v: np.ndarray, tol: float) -> list[int]:
+    """Indices where the speed leaves the current level by more than ``tol``."""
+    starts, ref = [0], v[0]
+    for i, x in enumerate(v.tolist()):
+        if abs(x - ref) > tol:
+            starts.append(i)
+            ref = x
+    return starts
+
+
+def _merge_short(starts: list[int], n: int, min_len: int) -> list[tuple[int, int]]:
+    """Segments [a, b); a segment shorter than ``min_len`` joins the next one (the last joins the previous)."""
+    bounds = list(zip(starts, starts[1:] + [n]))
+    out: list[tuple[int, int]] = []
+    pending: int | None = None
+    for i, (a, b) in enumerate(bounds):
+        start = a if pending is None else pending
+        if b - a < min_len and i < len(bounds) - 1:
+            pending = start
+            continue
+        pending = None
+        if b - a < min_len and out:
+            out[-1] = (out[-1][0], b)
+        else:
+            out.append((start, b))
+    return out
+
+
+# ---------------------------------------------------------------------------------------------- loading
+
+
+@dataclass
+class _Manifest:
+    path: str
+    time: str
+    time_unit: str | None
+    sheet: str | None
+    channels: dict[str, tuple[str, str | None, dict[str, Any]]]  # column -> (role, unit, meta)
+
+
+def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLike, *,
+                   require: Iterable[str] = ("temperature", "displacement")) -> Recording:
+    """Read a table and its manifest into a :class:`Recording`; raise :class:`InputError` on bad input.
+
+    ``require`` lists roles that must have at least one channel (default: temperature and displacement).
+    """
+    manifest = _read_manifest(manifest_path, tuple(require))
+    table = str(table_path)
+    header, body, sheet_note = _read_table(Path(table_path), manifest.sheet)
+    notes = [sheet_note] if sheet_note else []
+
+    header = [h.strip() for h in header]
+    positions: dict[str, list[int]] = {}
+    for i, name in enumerate(header):
+        positions.setdefault(name, []).append(i)
+    for column in (manifest.time, *manifest.channels):
+        _locate(column, positions, header, table, manifest.path)
+    if len(body) < MIN_ROWS:
+        raise InputError(f"only {len(body)} data rows; at least {MIN_ROWS} are needed", file=table,
+                         hint="record longer or check that the whole table was exported")
+
+    time_s = _parse_time(body[positions[manifest.time][0]], manifest.time_unit, table, manifest.time)
+    _note_time_gaps(time_s, notes)
+
+    data: dict[str, Any] = {}
+    channels: dict[str, Channel] = {}
+    for i, name in enumerate(header):
+        spec = manifest.channels.get(name)
+        if spec is None or spec[0] == "ignore":
+            continue
+        role, unit, meta = spec
+        raw = body[i]
+        if role == "condition":
+            data[name] = _parse_labels(raw, table, name)
+            channels[name] = Channel(name, role, None, meta)
+            continue
+        values = _parse_numbers(raw, table, name)
+        values, filled = _fill_gaps(values, time_s, table, name)
+        if filled:
+            rows = ", ".join(str(r + 2) for r in filled[:5]) + (", ..." if len(filled) > 5 else "")
+            notes.append(f"{name}: {len(filled)} missing value(s) interpolated linearly (rows {rows})")
+        if role in _NONCONSTANT_ROLES and np.ptp(values) == 0:
+            raise InputError(f"{role} is constant ({values[0]:g} {unit} in every row)", file=table, column=name,
+                             hint="check the sensor or mark the column role: ignore in the manifest")
+        canonical, (scale, offset) = _UNITS[role][0], _UNITS[role][1][unit]
+        if (scale, offset) != (1.0, 0.0):
+            values = values * scale + offset
+            notes.append(f"{name}: converted from {unit} to {canonical}")
+        data[name] = values
+        channels[name] = Channel(name, role, canonical, meta)
+
+    unnamed = [h or f"<unnamed column {i + 1}>" for i, h in enumerate(header)
+               if h != manifest.time and h not in manifest.channels]
+    if unnamed:
+        shown = ", ".join(unnamed[:10]) + (f" and {len(unnamed) - 10} more" if len(unnamed) > 10 else "")
+        notes.append(f"ignored {len(unnamed)} column(s) not named in the manifest: {shown}")
+    frame = pd.DataFrame(data, index=pd.Index(time_s, name=TIME_INDEX))
+    return Recording(frame, channels, source=table, notes=notes)
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate mapping keys (two channels for one column would silently merge)."""
+
+
+class _DuplicateKey(Exception):
+    def __init__(self, key: Any, line: int, first_line: int):
+        super().__init__(key, line, first_line)
+        self.key, self.line, self.first_line = key, line, first_line
+
+
+def _construct_unique_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False) -> dict:
+    seen: dict[Any, int] = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if key in seen:
+            raise _DuplicateKey(key, key_node.start_mark.line + 1, seen[key])
+        seen[key] = key_node.start_mark.line + 1
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_unique_mapping)
+
+
+def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manifest:
+    file = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise InputError("manifest file not found", file=file,
+                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise InputError(f"cannot read the manifest ({type(exc).__name__})", file=file,
+                         hint="the manifest must be a UTF-8 YAML file") from None
+    try:
+        doc = yaml.load(text, Loader=_StrictLoader)
+    except _DuplicateKey as dup:
+        raise InputError(f"line {dup.line}: key {dup.key!r} appears twice (first on line {dup.first_line})",
+                         file=file, column=str(dup.key), hint="give each column one entry") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        raise InputError(f"{where}broken YAML ({problem})", file=file,
+                         hint="check indentation, colons and quotes") from None
+    if not isinstance(doc, dict):
+        kind = "empty" if doc is None else f"a {type(doc).__name__}, not a mapping"
+        raise InputError(f"the manifest is {kind}", file=file,
+                         hint="write 'time: <column>' and 'channels: {<column>: {role: ..., unit: ...}}'")
+    unknown = [str(k) for k in doc if k not in _MANIFEST_KEYS]
+    if unknown:
+        raise InputError(f"unknown manifest key {unknown[0]!r}", file=file,
+                         hint=_suggest(unknown[0], _MANIFEST_KEYS, f"known keys: {', '.join(_MANIFEST_KEYS)}"))
+    if doc.get("time") is None:
+        raise InputError("the manifest has no 'time:' key", file=file,
+                         hint="add 'time: <name of the time column>'")
+    time_unit = doc.get("time_unit")
+    if time_unit is not None and time_unit not in _TIME_UNITS:
+        raise InputError(f"unknown time_unit {time_unit!r}", file=file,
+                         hint=f"use one of {', '.join(_TIME_UNITS)} (or leave it out for timestamps)")
+    sheet = doc.get("sheet")
+    channels_doc = doc.get("channels")
+    if channels_doc is None:
+        raise InputError("the manifest has no 'channels:' key", file=file,
+                         hint="add 'channels: {<column>: {role: temperature, unit: degC}, ...}'")
+    if not isinstance(channels_doc, dict) or not channels_doc:
+        raise InputError("'channels' must be a non-empty mapping of column names to {role, unit}", file=file,
+                         hint="e.g. 'channels: {T1: {role: temperature, unit: degC}}'")
+    time_col = str(doc["time"]).strip()
+    channels: dict[str, tuple[str, str | None, dict[str, Any]]] = {}
+    for key, spec in channels_doc.items():
+        column = str(key).strip()
+        if column == time_col:
+            raise InputError("the time column is also listed as a channel", file=file, column=column,
+                             hint="remove it from 'channels'")
+        channels[column] = _channel_spec(spec, file, column)
+    for role in _SINGLE_ROLES:
+        cols = [c for c, (r, _, _) in channels.items() if r == role]
+        if len(cols) > 1:
+            raise InputError(f"{len(cols)} channels have role {role} ({', '.join(cols)}); one is allowed",
+                             file=file, column=cols[1], hint="mark the others role: ignore")
+    for role in require:
+        if not any(r == role for r, _, _ in channels.values()):
+            raise InputError(f"no channel has role {role}", file=file,
+                             hint=f"give at least one column 'role: {role}' with its unit")
+    return _Manifest(file, time_col, time_unit, None if sheet is None else str(sheet), channels)
+
+
+def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, dict[str, Any]]:
+    if not isinstance(spec, dict):
+        raise InputError(f"channel entry must be a mapping, got {spec!r}", file=file, column=column,
+                         hint="write e.g. '{role: temperature, unit: degC}'")
+    role = spec.get("role")
+    if role is None:
+        raise InputError("channel has no role", file=file, column=column,
+                         hint=f"add role: one of {', '.join(ROLES)}")
+    if role not in ROLES:
+        raise InputError(f"unknown role {role!r}", file=file, column=column,
+                         hint=_suggest(str(role), ROLES, f"use one of {', '.join(ROLES)}"))
+    unit = spec.get("unit")
+    meta = {str(k): v for k, v in spec.items() if k not in ("role", "unit")}
+    if role in ("condition", "ignore"):
+        if role == "condition" and unit is not None:
+            raise InputError(f"a condition label has no unit (got {unit!r})", file=file, column=column,
+                             hint="remove the unit")
+        return role, None, meta
+    accepted = _UNITS[role][1]
+    if unit is None:
+        raise InputError(f"{role} channel has no unit", file=file, column=column,
+                         hint=f"add unit: one of {', '.join(accepted)}")
+    if unit not in accepted:
+        known_elsewhere = any(unit in units for _, units in _UNITS.values())
+        what = f"unit {unit!r} is not valid for role {role}" if known_elsewhere else f"unknown unit {unit!r}"
+        raise InputError(what, file=file, column=column, hint=f"use one of {', '.join(accepted)}")
+    return role, str(unit), meta
+
+
+def _suggest(word: str, choices: Iterable[str], fallback: str) -> str:
+    close = difflib.get_close_matches(word, list(choices), n=1)
+    return f"did you mean {close[0]!r}? {fallback}" if close else fallback
+
+
+def _locate(column: str, positions: dict[str, list[int]], header: list[str], table: str, manifest: str) -> None:
+    found = positions.get(column)
+    if not found:
+        listed = ", ".join(repr(h) for h in header[:12]) + (", ..." if len(header) > 12 else "")
+        raise InputError(f"the table has no such column (named in manifest {manifest})", file=table,
+                         column=column, hint=_suggest(column, header, f"columns are: {listed}"))
+    if len(found) > 1:
+        where = " and ".join(str(p + 1) for p in found)
+        raise InputError(f"the header names {len(found)} columns alike (positions {where})", file=table,
+                         column=column, hint="rename the duplicates so each column is unique")
+
+
+def _read_table(path: Path, sheet: str | None) -> tuple[list[str], pd.DataFrame, str | None]:
+    """Header names and the data rows (columns numbered 0..n-1) of a CSV, Parquet or XLSX table."""
+    file = str(path)
+    suffix = path.suffix.lower()
+    if suffix not in _TABLE_SUFFIXES:
+        raise InputError(f"unsupported table type {suffix or '(no suffix)'!r}", file=file,
+                         hint="save the table as .csv, .parquet or .xlsx")
+    if not path.is_file():
+        raise InputError("table file not found", file=file, hint="check the path")
+    if path.stat().st_size == 0:
+        raise InputError("empty file", file=file, hint="export the table again with a header and data rows")
+    note = None
+    if suffix == ".csv":
+        header, body = _read_csv(path)
+    elif suffix == ".parquet":
+        header, body = _read_parquet(path)
+    else:
+        header, body = _read_xlsx(path, sheet)
+    if sheet is not None and suffix != ".xlsx":
+        note = f"manifest key 'sheet: {sheet}' ignored: {path.name} is not an XLSX workbook"
+    if not len(body):
+        raise InputError("the table has a header but no data rows", file=file,
+                         hint="export the table again with its data")
+    return header, body, note
+
+
+def _read_csv(path: Path) -> tuple[list[str], pd.DataFrame]:
+    file = str(path)
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as fh:
+            first = fh.readline()
+        if not first.strip():
+            raise InputError("empty file (the first line holds no header)", file=file,
+                             hint="the first line must name the columns")
+        # European exports use ';' (decimal comma) or tabs; the header line tells which.
+        sep = max((",", ";", "\t"), key=first.count)
+        header = next(csv.reader([first], delimiter=sep))
+        body = pd.read_csv(path, sep=sep, header=0, names=list(range(len(header))), encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("the file is not UTF-8 text", file=file, hint="save the table as UTF-8 CSV") from None
+    except pd.errors.EmptyDataError:
+        raise InputError("empty file", file=file, hint="export the table again with a header") from None
+    except pd.errors.ParserError as exc:
+        found = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
+        if found:
+            expected, line, saw = (int(g) for g in found.groups())
+            raise InputError(f"the row has {saw} fields but the header has {expected}", file=file, row=line,
+                             hint="every row needs one value per header column") from None
+        raise InputError(f"malformed CSV ({' '.join(str(exc).split())})", file=file) from None
+    return [str(h) for h in header], body
+
+
+def _read_parquet(path: Path) -> tuple[list[str], pd.DataFrame]:
+    try:
+        frame = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for files that are not Parquet
+        raise InputError(f"not a readable Parquet file ({type(exc).__name__})", file=str(path),
+                         hint="write it with pandas.DataFrame.to_parquet or save it as CSV") from None
+    if not isinstance(frame.index, pd.RangeIndex):
+        frame = frame.reset_index()
+    header = [str(c) for c in frame.columns]
+    return header, frame.set_axis(range(len(header)), axis=1)
+
+
+def _read_xlsx(path: Path, sheet: str | None) -> tuple[list[str], pd.DataFrame]:
+    file = str(path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # openpyxl warns about styles it does not read
+        try:
+            book = pd.ExcelFile(path, engine="openpyxl")
+        except Exception as exc:  # zipfile, openpyxl and pandas raise different types for a broken file
+            raise InputError(f"not a readable XLSX workbook ({type(exc).__name__})", file=file,
+                             hint="open and save it as .xlsx, or export CSV") from None
+        with book:
+            names = [str(s) for s in book.sheet_names]
+            name = names[0] if sheet is None else sheet
+            if name not in names:
+                raise InputError(f"the workbook has no sheet {sheet!r}", file=file,
+                                 hint=_suggest(name, names, f"sheets: {', '.join(map(repr, names))}; "
+                                               "set 'sheet:' in the manifest"))
+            raw = book.parse(name, header=None)
+    if raw.empty:
+        raise InputError(f"empty file (sheet {name!r} holds no cells)", file=file,
+                         hint="put the header in row 1 and the data below it, or choose the sheet with 'sheet:'")
+    if len(raw) < 2:
+        raise InputError(f"sheet {name!r} has a header but no data rows", file=file,
+                         hint="choose the sheet with 'sheet:' in the manifest")
+    header = ["" if pd.isna(v) else _cell_text(v) for v in raw.iloc[0]]
+    body = raw.iloc[1:].reset_index(drop=True).set_axis(range(raw.shape[1]), axis=1)
+    return header, body
+
+
+def _cell_text(value: Any) -> str:
+    if isinstance(value, float) and value.is_integer():
+        return str(int(value))
+    return str(value)
+
+
+def _cell_repr(value: Any) -> str:
+    """A cell as a user would recognise it: strings quoted, other values as printed."""
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def _blank_to_nan(raw: pd.Series) -> pd.Series:
+    """Cells holding only spaces count as missing, like empty cells."""
+    if pd.api.types.is_numeric_dtype(raw):
+        return raw
+    text = raw.astype(object)
+    blank = text.map(lambda v: isinstance(v, str) and not v.strip())
+    return text.mask(blank)
+
+
+def _parse_numbers(raw: pd.Series, file: str, column: str) -> np.ndarray:
+    """Float values; NaN where the cell is empty; InputError at the first cell that is not a finite number."""
+    raw = _blank_to_nan(raw)
+    if pd.api.types.is_bool_dtype(raw):
+        raise InputError("holds true/false values, not numbers", file=file, column=column, row=2)
+    numbers = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
+    bad = np.flatnonzero(raw.notna().to_numpy() & ~np.isfinite(numbers))
+    if len(bad):
+        value, row = raw.iloc[bad[0]], int(bad[0]) + 2
+        if np.isinf(numbers[bad[0]]):
+            raise InputError(f"infinite value {_cell_repr(value)}", file=file, column=column, row=row,
+                             hint="leave the cell empty if the sample is missing")
+        hint = ("decimal comma? write 21.5, not 21,5" if isinstance(value, str)
+                and re.fullmatch(r"\s*[-+]?\d+,\d+\s*", value) else "every cell must be a number or empty")
+        raise InputError(f"non-numeric value {_cell_repr(value)}", file=file, column=column, row=row, hint=hint)
+    return numbers
+
+
+def _parse_labels(raw: pd.Series, file: str, column: str) -> np.ndarray:
+    raw = _blank_to_nan(raw)
+    missing = np.flatnonzero(raw.isna().to_numpy())
+    if len(missing):
+        raise InputError("missing condition label", file=file, column=column, row=int(missing[0]) + 2,
+                         hint="every row needs a label")
+    return np.array([_cell_text(v) for v in raw], dtype=object)
+
+
+def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str) -> np.ndarray:
+    """Times in s: numbers times the unit, or timestamps as seconds since the first row."""
+    raw = _blank_to_nan(raw)
+    missing = np.flatnonzero(raw.isna().to_numpy())
+    if len(missing):
+        raise InputError("missing time value", file=file, column=column, row=int(missing[0]) + 2,
+                         hint="every row needs a time")
+    if unit is not None and not _is_number(raw.iloc[0]):
+        raise InputError(f"'time_unit: {unit}' given but the time column holds {_cell_repr(raw.iloc[0])}",
+                         file=file, column=column, row=2, hint="remove time_unit to read timestamps")
+    if unit is not None or _is_number(raw.iloc[0]):
+        seconds = _parse_numbers(raw, file, column) * _TIME_UNITS[unit or "s"]
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # pandas warns when it falls back to per-element parsing
+            stamps = pd.to_datetime(raw, errors="coerce", utc=True)
+        bad = np.flatnonzero(stamps.isna().to_numpy())
+        if len(bad):
+            raise InputError(f"unparsable timestamp {_cell_repr(raw.iloc[bad[0]])}", file=file, column=column,
+                             row=int(bad[0]) + 2,
+                             hint="use one format like 2024-05-01 12:00:15, or seconds with 'time_unit: s'")
+        seconds = (stamps - stamps.iloc[0]).dt.total_seconds().to_numpy(dtype=float)
+    step = np.diff(seconds)
+    wrong = np.flatnonzero(step <= 0)
+    if len(wrong):
+        i = int(wrong[0]) + 1
+        if step[i - 1] == 0:
+            raise InputError(f"duplicate time {seconds[i]:g} s (same as row {i + 1})", file=file, column=column,
+                             row=i + 2, hint="remove the repeated row")
+        raise InputError(f"time goes backwards ({seconds[i]:g} s after {seconds[i - 1]:g} s)", file=file,
+                         column=column, row=i + 2, hint="sort the table by time or fix the time column")
+    return seconds
+
+
+def _is_number(value: Any) -> bool:
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
+def _fill_gaps(values: np.ndarray, time_s: np.ndarray, file: str, column: str) -> tuple[np.ndarray, list[int]]:
+    """Interpolate runs of at most MAX_NAN_RUN missing samples linearly in time; longer runs are errors."""
+    missing = np.isnan(values)
+    if not missing.any():
+        return values, []
+    edges = np.diff(np.r_[0, missing.astype(np.int8), 0])
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    long = np.flatnonzero(ends - starts > MAX_NAN_RUN)
+    if len(long):
+        a, b = int(starts[long[0]]), int(ends[long[0]])
+        raise InputError(f"{b - a} missing values in a row (rows {a + 2} to {b + 1}); at most {MAX_NAN_RUN} "
+                         "consecutive missing samples are interpolated", file=file, column=column, row=a + 2,
+                         hint="fill or cut the gap, or split the recording there")
+    filled = values.copy()
+    filled[missing] = np.interp(time_s[missing], time_s[~missing], values[~missing])
+    return filled, np.flatnonzero(missing).tolist()
+
+
+def _note_time_gaps(time_s: np.ndarray, notes: list[str]) -> None:
+    step = np.diff(time_s)
+    median = float(np.median(step))
+    gaps = np.flatnonzero(step > 10 * median)
+    if len(gaps):
+        i = int(gaps[0])
+        notes.append(f"{len(gaps)} time gap(s) longer than 10 sampling intervals; the first: {step[i]:g} s "
+                     f"before row {i + 3}")
+    elif np.any(np.abs(step - median) > 0.01 * median):
+        notes.append(f"irregular sampling: intervals from {step.min():g} s to {step.max():g} s "
+                     f"(median {median:g} s)")

@@ -1,0 +1,81 @@
+"""Model ``bp``: the back-propagation network (multilayer perceptron) of the seed studies.
+
+S2 maps five sensitive temperatures to spindle drift with two hidden layers of 8 tanh units (tried 3–13);
+S1 uses a BP network as a baseline. Here it is trained by the shared trainer (AdamW, SGDR warm restarts,
+gradient clipping, early stopping on the chronological validation tail), so the stabilisers are searched
+together with the hidden structure.
+"""
+
+from __future__ import annotations
+
+from torch import nn
+
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.training import TorchThermalModel, trainer_search_space
+
+ACTIVATIONS: dict[str, type[nn.Module]] = {"tanh": nn.Tanh, "sigmoid": nn.Sigmoid, "relu": nn.ReLU, "gelu": nn.GELU}
+
+
+class BPNetwork(TorchThermalModel):
+    """Temperatures (°C) → displacements (µm) through ``hidden_layers`` layers of ``hidden_units`` units.
+
+    Inputs and targets are Z-scored inside the trainer; the output layer is linear. ``lr_max`` is the peak
+    learning rate of each SGDR cycle (first cycle ``t0`` epochs, each next ``t_mult`` times longer, floor
+    ``eta_min_ratio``·lr_max); ``clip_norm`` caps the gradient norm (None: off); ``patience`` counts cycle
+    ends without a better validation RMSE; ``batch_size`` None trains full-batch.
+    """
+
+    def __init__(self, hidden_layers: int = 2, hidden_units: int = 8, activation: str = "tanh",
+                 lr_max: float = 1e-2, weight_decay: float = 1e-4, epochs: int = 300, batch_size: int | None = None,
+                 t0: int = 20, t_mult: int = 2, eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0,
+                 patience: int | None = 3, validation_fraction: float = 0.15, random_state: int = 0,
+                 device: str = "auto"):
+        self.hidden_layers = hidden_layers
+        self.hidden_units = hidden_units
+        self.activation = activation
+        self.lr_max = lr_max
+        self.weight_decay = weight_decay
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.t0 = t0
+        self.t_mult = t_mult
+        self.eta_min_ratio = eta_min_ratio
+        self.clip_norm = clip_norm
+        self.patience = patience
+        self.validation_fraction = validation_fraction
+        self.random_state = random_state
+        self.device = device
+
+    @classmethod
+    def get_test_params(cls):
+        return [
+            {"hidden_units": 4, "epochs": 6, "t0": 2, "t_mult": 2},
+            {"hidden_layers": 1, "hidden_units": 3, "activation": "relu", "epochs": 4, "batch_size": 32,
+             "t0": 2, "t_mult": 1, "clip_norm": None, "patience": None},
+        ]
+
+    @classmethod
+    def search_space(cls):
+        return {
+            "hidden_layers": {"type": "int", "low": 1, "high": 3},
+            "hidden_units": {"type": "int", "low": 3, "high": 13},
+            **trainer_search_space(),
+        }
+
+    def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
+        if self.activation not in ACTIVATIONS:
+            raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got {self.activation!r}")
+        if self.hidden_layers < 0 or self.hidden_units < 1:
+            raise ValueError("hidden_layers must be >= 0 and hidden_units >= 1")
+        layers: list[nn.Module] = []
+        width = n_inputs
+        for _ in range(self.hidden_layers):
+            layers += [nn.Linear(width, self.hidden_units), ACTIVATIONS[self.activation]()]
+            width = self.hidden_units
+        layers.append(nn.Linear(width, n_outputs))
+        return nn.Sequential(*layers)
+
+
+@hookimpl
+def thermodrift_register_models(registry):
+    registry.add("model", "bp", BPNetwork)

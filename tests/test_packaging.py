@@ -1,0 +1,44 @@
+"""The install layout: namespaced import names, no top-level squatting, every config group packaged."""
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_namespaced_imports_from_another_folder(tmp_path):
+    ok = subprocess.run([sys.executable, "-c", "import thermodrift.core, thermodrift.plugins.models, thermodrift.conf"],
+                        cwd=tmp_path, capture_output=True, text=True)
+    assert ok.returncode == 0, ok.stderr
+    for squat in ("core", "plugins", "conf"):
+        bad = subprocess.run([sys.executable, "-c", f"import {squat}"], cwd=tmp_path, capture_output=True, text=True)
+        assert bad.returncode != 0 and "ModuleNotFoundError" in bad.stderr
+
+
+def test_every_conf_group_is_a_listed_package():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    packages = set(meta["tool"]["setuptools"]["packages"])
+    groups = {p.name for p in (ROOT / "conf").iterdir() if p.is_dir() and p.name != "__pycache__"}
+    assert groups, "conf/ has no config groups"
+    assert {f"thermodrift.conf.{g}" for g in groups} <= packages
+    listed = {p.split(".")[-1] for p in packages if p.startswith("thermodrift.conf.")}
+    assert listed == groups
+    data = meta["tool"]["setuptools"]["package-data"]
+    assert all(data.get(f"thermodrift.conf.{g}") == ["*.yaml"] for g in groups)
+
+
+def test_every_plugin_folder_is_a_listed_package():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    packages = set(meta["tool"]["setuptools"]["packages"])
+    folders = {p.name for p in (ROOT / "plugins").iterdir() if (p / "__init__.py").exists()}
+    mapped = {"hydra_sweeper": "hydra_plugins.thermodrift_sweeper"}
+    assert {mapped.get(f, f"thermodrift.plugins.{f}") for f in folders} <= packages
+
+
+def test_entry_points_name_existing_modules():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    for name, target in meta["project"]["entry-points"]["thermodrift"].items():
+        rel = target.removeprefix("thermodrift.plugins.").replace(".", "/")
+        assert (ROOT / "plugins" / f"{rel}.py").exists(), f"entry point {name} -> {target} has no module"

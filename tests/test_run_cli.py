@@ -1,0 +1,140 @@
+"""`thermodrift run` end to end, as a user runs it: subprocesses in a scratch folder, results read from MLflow."""
+
+import json
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import mlflow
+import pytest
+
+from thermodrift.testing.data import tiny_recording
+
+EXE = [sys.executable, "-m", "thermodrift.core.cli"]
+
+
+@pytest.fixture()
+def workdir(tmp_path):
+    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
+    return tmp_path
+
+
+def thermodrift(cwd: Path, *args: str, timeout: float = 300) -> subprocess.CompletedProcess:
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    env.pop("THERMODRIFT_SWEEP_ID", None)
+    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
+        "progress=false"]
+
+
+def runs(cwd: Path):
+    mlflow.set_tracking_uri(f"sqlite:///{cwd / 'mlflow.db'}")
+    return mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
+
+
+def test_single_run_logs_held_out_metrics_and_baselines(workdir):
+    out = thermodrift(workdir, "run", *TINY, "n_trials=4", "seed=3")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "persistence" in out.stdout and "mlr" in out.stdout
+    (run,) = runs(workdir)
+    m = run.data.metrics
+    for name in ("rmse", "mae", "r2", "max_abs_error"):
+        assert f"test/{name}" in m
+        assert f"baseline/persistence/test/{name}" in m and f"baseline/mlr/test/{name}" in m
+    assert 0 < m["test/rmse"] < 5 and m["test/r2"] > 0.5  # the tiny recording is nearly linear
+    assert m["study/n_trials"] == 4
+    tags = run.data.tags
+    assert {tags[k] for k in ("dataset", "selector", "model", "optimizer", "split", "ablation")} == {
+        "recording_file", "correlation_top_k", "mlr", "tpe", "condition_holdout", "none"}
+    assert tags["protocol"] == "honest"
+    client = mlflow.MlflowClient()
+    figs = {a.path for a in client.list_artifacts(run.info.run_id, "figures")}
+    assert {"figures/prediction_vs_measurement.png", "figures/residuals.png"} <= figs
+    assert [a.path for a in client.list_artifacts(run.info.run_id, "model")] == ["model/model.pkl"]
+    history = client.get_metric_history(run.info.run_id, "trial/value")
+    assert sorted(h.step for h in history) == [0, 1, 2, 3]
+
+
+def test_grid_makes_one_parent_and_tagged_children(workdir):
+    out = thermodrift(workdir, "run", "-m", "model=mlr,persistence", *TINY, "n_trials=2")
+    assert out.returncode == 0, out.stderr[-2000:]
+    all_runs = runs(workdir)
+    parents = [r for r in all_runs if r.data.tags.get("kind") == "sweep"]
+    children = [r for r in all_runs if "mlflow.parentRunId" in r.data.tags]
+    assert len(parents) == 1 and len(children) == 2
+    assert {c.data.tags["mlflow.parentRunId"] for c in children} == {parents[0].info.run_id}
+    assert sorted(c.data.tags["model"] for c in children) == ["mlr", "persistence"]
+    assert parents[0].info.status == "FINISHED"
+    artifacts = [a.path for a in mlflow.MlflowClient().list_artifacts(parents[0].info.run_id)]
+    assert "grid.csv" in artifacts
+    sweep_dirs = list((workdir / "multirun").iterdir())
+    assert len(sweep_dirs) == 1 and (sweep_dirs[0] / "0").is_dir() and (sweep_dirs[0] / "1").is_dir()
+
+
+def test_bad_input_is_one_line_and_exit_2(workdir):
+    wrong_group = thermodrift(workdir, "run", *TINY, "model=no_such_model")
+    assert wrong_group.returncode == 2
+    assert "Traceback" not in wrong_group.stderr
+    missing = thermodrift(workdir, "run", "dataset=recording_file", "dataset.params.table=nope.csv",
+                          "dataset.params.manifest=tiny.yaml")
+    assert missing.returncode == 2 and "Traceback" not in missing.stderr
+    lines = [ln for ln in missing.stderr.splitlines() if ln.startswith("thermodrift: error:")]
+    assert len(lines) == 1 and "nope.csv" in lines[0]
+    bad_target = thermodrift(workdir, "run", *TINY, "targets=[T_column]")
+    assert bad_target.returncode == 2 and "T_column" in bad_target.stderr and "Traceback" not in bad_target.stderr
+
+
+def _complete_trials(db: Path) -> list[tuple[int, float]]:
+    if not db.exists():
+        return []
+    try:
+        with sqlite3.connect(db, timeout=1) as con:
+            return con.execute("SELECT t.number, v.value FROM trials t JOIN trial_values v USING (trial_id) "
+                               "WHERE t.state = 'COMPLETE' ORDER BY t.number").fetchall()
+    except sqlite3.OperationalError:
+        return []
+
+
+def test_killed_study_resumes_and_keeps_completed_trials(workdir):
+    args = [*EXE, "run", *TINY, "model=bp", "model.params.epochs=60", "n_trials=8", "optimizer=random"]
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    proc = subprocess.Popen(args, cwd=workdir, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    db = workdir / "thermodrift.optuna.db"
+    deadline = time.time() + 240
+    while len(_complete_trials(db)) < 2 and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    before = _complete_trials(db)
+    assert 2 <= len(before) < 8, f"kill came too late or too early: {len(before)} complete trials"
+    out = thermodrift(workdir, "run", *[a for a in args[len(EXE) + 1:]])
+    assert out.returncode == 0, out.stderr[-2000:]
+    after = _complete_trials(db)
+    assert set(before) <= set(after), "completed trials were lost or changed"
+    assert len(after) == 8
+    (run,) = [r for r in runs(workdir) if r.info.status == "FINISHED"]
+    assert run.data.metrics["study/n_trials"] >= 8
+
+
+def test_plugins_json_lists_components_with_origins(workdir):
+    out = thermodrift(workdir, "plugins", "--json")
+    assert out.returncode == 0, out.stderr
+    listing = json.loads(out.stdout)["components"]
+    assert len(listing["selector"]) >= 3 and len(listing["model"]) >= 2 and len(listing["optimizer"]) >= 4
+    builtin = {c["name"]: c["origin"] for c in listing["optimizer"]}
+    assert builtin["tpe"] == "thermodrift" and builtin["random"] == "thermodrift"
+
+
+def test_every_verb_has_help(workdir):
+    for verb in ("plugins", "validate", "simulate", "calibrate", "bench"):
+        out = thermodrift(workdir, verb, "--help")
+        assert out.returncode == 0 and "usage:" in out.stdout, (verb, out.stderr[-500:])
+    out = thermodrift(workdir, "run", "--help")
+    assert out.returncode == 0 and "model" in out.stdout
