@@ -22,3 +22,7 @@ class InputError(Exception):
 
 class PluginError(Exception):
     """A plugin could not be loaded or registered a conflicting component."""
+
+
+class DuplicateComponentError(PluginError):
+    """Two plugins registered the same component name; the message names both origins."""

@@ -22,7 +22,7 @@ from typing import Any, Callable
 import pluggy
 
 from thermodrift.core import hookspecs
-from thermodrift.core.errors import PluginError
+from thermodrift.core.errors import DuplicateComponentError, PluginError
 
 KINDS = ("selector", "model", "optimizer", "dataset", "mechanism")
 _HOOKS = {
@@ -71,7 +71,7 @@ class Registry:
             raise PluginError(f"{self._origin}: {kind} {name!r} is not callable")
         known = self.components[kind].get(name)
         if known is not None:
-            raise PluginError(
+            raise DuplicateComponentError(
                 f"duplicate {kind} name {name!r}: registered by {known.origin} ({known.module}) "
                 f"and by {self._origin} ({self._module}); rename one of them")
         self.components[kind][name] = Component(kind, name, factory, self._origin, self._module)
@@ -125,18 +125,21 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
     manager = pluggy.PluginManager(hookspecs.PROJECT)
     manager.add_hookspecs(hookspecs)
     registry = Registry()
-    plugins: list[tuple[str, str, object]] = []
+    plugins: list[tuple[str, str, str, object]] = []
     for ep in entry_points:
         origin = ep.dist.name if ep.dist else "<unknown>"
+        key, name = f"{origin} ({ep.name})", f"{origin}:{ep.name}"
         try:
             module = ep.load()
-            manager.register(module, name=f"{origin}:{ep.name}")
+            manager.register(module, name=name)
+            manager.check_pending()  # a misspelled hook fails this plugin only
         except Exception as exc:  # a broken third-party distribution must not stop the rest
-            registry.failures[f"{origin} ({ep.name})"] = _one_line(exc)
+            if manager.get_plugin(name) is not None:
+                manager.unregister(name=name)
+            registry.failures[key] = _one_line(exc)
             continue
-        plugins.append((origin, ep.value, module))
-    manager.check_pending()
-    for origin, module_name, module in plugins:
+        plugins.append((origin, key, ep.value, module))
+    for origin, key, module_name, module in plugins:
         registry._origin, registry._module = origin, module_name
         for hook_name in (*_HOOKS.values(), "thermodrift_hydra_searchpaths"):
             impl = getattr(module, hook_name, None)
@@ -144,12 +147,10 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
                 continue
             try:
                 impl(registry=registry)
-            except PluginError as exc:
-                if str(exc).startswith("duplicate"):
-                    raise
-                registry.failures[f"{origin} ({module_name})"] = _one_line(exc)
+            except DuplicateComponentError:
+                raise
             except Exception as exc:  # same rule as for import failures
-                registry.failures[f"{origin} ({module_name})"] = _one_line(exc)
+                registry.failures[key] = _one_line(exc)
     registry._origin = registry._module = "<unknown>"
     return registry
 

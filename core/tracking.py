@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import logging
 import os
-import pickle
 import re
 import tempfile
 import time
@@ -18,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import mlflow
+import mlflow.sklearn
 import numpy as np
 import optuna
 import pandas as pd
@@ -35,6 +35,7 @@ def setup(uri: str | None, experiment: str) -> str:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)
+    logging.getLogger("mlflow.sklearn").setLevel(logging.ERROR)  # the cloudpickle caution: chosen knowingly
     mlflow.set_tracking_uri(uri or DEFAULT_URI)
     return mlflow.set_experiment(experiment).experiment_id
 
@@ -106,9 +107,10 @@ def log_result(result, params: dict[str, Any]) -> None:
         for fig_name, fig in figures(result).items():
             fig.savefig(tmp_path / fig_name, dpi=110, bbox_inches="tight")
             mlflow.log_artifact(str(tmp_path / fig_name), artifact_path="figures")
-        with open(tmp_path / "model.pkl", "wb") as fh:
-            pickle.dump(result.model, fh)
-        mlflow.log_artifact(str(tmp_path / "model.pkl"), artifact_path="model")
+    # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
+    # refuses estimator classes it does not know, and every plugin model is one.
+    mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
+                             pip_requirements=["thermodrift"])
 
 
 def comparison(result) -> pd.DataFrame:

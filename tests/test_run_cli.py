@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 import mlflow
+import mlflow.sklearn
 import pytest
 
 from thermodrift.testing.data import tiny_recording
@@ -38,6 +39,18 @@ def runs(cwd: Path):
     return mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
 
 
+def test_main_job_on_embedded_defaults(tmp_path):
+    """The README's main job: no arguments, the built-in dataset, SQLite for Optuna and MLflow."""
+    out = thermodrift(tmp_path, "run")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert (tmp_path / "mlflow.db").exists() and (tmp_path / "thermodrift.optuna.db").exists()
+    (run,) = runs(tmp_path)
+    m = run.data.metrics
+    assert {"test/rmse", "test/mae", "test/r2", "test/max_abs_error",
+            "baseline/persistence/test/rmse", "baseline/mlr/test/rmse"} <= set(m)
+    assert run.data.tags["dataset"] == "demo_spindle" and m["study/n_trials"] == 20
+
+
 def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     out = thermodrift(workdir, "run", *TINY, "n_trials=4", "seed=3")
     assert out.returncode == 0, out.stderr[-2000:]
@@ -56,7 +69,11 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     client = mlflow.MlflowClient()
     figs = {a.path for a in client.list_artifacts(run.info.run_id, "figures")}
     assert {"figures/prediction_vs_measurement.png", "figures/residuals.png"} <= figs
-    assert [a.path for a in client.list_artifacts(run.info.run_id, "model")] == ["model/model.pkl"]
+    (logged,) = mlflow.search_logged_models(experiment_ids=[run.info.experiment_id], output_format="list")
+    assert logged.source_run_id == run.info.run_id
+    model = mlflow.sklearn.load_model(f"models:/{logged.model_id}")
+    X = tiny_recording(seed=0).data[run.data.params["selected_sensors"].split(",")]
+    assert model.predict(X).shape == (len(X), 2)
     history = client.get_metric_history(run.info.run_id, "trial/value")
     assert sorted(h.step for h in history) == [0, 1, 2, 3]
 

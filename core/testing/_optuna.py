@@ -1,0 +1,19 @@
+"""Optuna helpers for the checks: studies that do not flood the log with one INFO line per trial."""
+
+from __future__ import annotations
+
+import contextlib
+from typing import Iterator
+
+import optuna
+
+
+@contextlib.contextmanager
+def quiet() -> Iterator[None]:
+    """Optuna's log at WARNING inside the block; the caller's verbosity is restored after it."""
+    before = optuna.logging.get_verbosity()
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    try:
+        yield
+    finally:
+        optuna.logging.set_verbosity(before)

@@ -1,0 +1,110 @@
+"""Contract checks for thermal models (``thermodrift.core.components.ThermalModel``), run on the tiny recording.
+
+Models that read the measured displacement's history (``uses_target_history``) get the ``lag1:<channel>``
+columns the study adds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import optuna
+import pandas as pd
+
+from thermodrift.core.errors import InputError
+from thermodrift.core.search_space import distributions, suggest
+from thermodrift.testing import _optuna
+from thermodrift.testing.data import tiny_frames, with_target_history
+from thermodrift.testing.estimator_checks import SHARED_CHECKS, Factory, fitted_attributes, pickled, seeded
+
+SEARCH_SPACE_POINTS = 3
+# Predictions must be within a decade of the targets' RMS per channel: catches mm-for-µm and divergence.
+MAGNITUDE_BAND = (0.1, 10.0)
+
+
+def _inputs(model, X: pd.DataFrame, y: pd.DataFrame) -> pd.DataFrame:
+    return with_target_history(X, y) if getattr(model, "uses_target_history", False) else X
+
+
+def _fit_predict(model, X: pd.DataFrame, y: pd.DataFrame) -> np.ndarray:
+    Xm = _inputs(model, X, y)
+    return model.fit(Xm, y).predict(Xm)
+
+
+def check_fit_predict_shape(factory: Factory, params: dict) -> None:
+    """``fit`` returns self; ``predict`` gives (n, k) for k displacement channels, for k = 2 and k = 1."""
+    X, y = tiny_frames()
+    for targets in (y, y[[y.columns[0]]]):
+        model = seeded(factory(**params))
+        Xm = _inputs(model, X, targets)
+        assert model.fit(Xm, targets) is model, "fit() must return self"
+        assert fitted_attributes(model), "fit() set no fitted attributes (names ending in '_')"
+        k = targets.shape[1]
+        pred = np.asarray(model.predict(Xm))
+        assert pred.shape == (len(X), k), f"predict() returned shape {pred.shape} for {len(X)} samples x {k} channels"
+        part = np.asarray(model.predict(Xm.iloc[-50:]))
+        assert part.shape == (50, k), f"predict() on 50 samples returned shape {part.shape}"
+
+
+def check_predictions_in_um(factory: Factory, params: dict) -> None:
+    """Predictions are finite and, per channel, within a decade of the targets' RMS (µm, not mm or diverged)."""
+    X, y = tiny_frames()
+    pred = _fit_predict(seeded(factory(**params)), X, y)
+    assert np.isfinite(pred).all(), f"{int((~np.isfinite(pred)).sum())} non-finite predictions"
+    target_rms = np.sqrt((y.to_numpy() ** 2).mean(axis=0))
+    pred_rms = np.sqrt((pred ** 2).mean(axis=0))
+    low, high = MAGNITUDE_BAND
+    for channel, t, p in zip(y.columns, target_rms, pred_rms):
+        assert low * t <= p <= high * t, (
+            f"{channel}: prediction RMS {p:.3g} µm vs target RMS {t:.3g} µm on the training data; "
+            "predictions must be in µm and of the targets' order")
+
+
+def check_model_deterministic(factory: Factory, params: dict) -> None:
+    """Two fits with the same parameters (``random_state=0`` where there is one) predict the same."""
+    X, y = tiny_frames()
+    first = _fit_predict(seeded(factory(**params)), X, y)
+    second = _fit_predict(seeded(factory(**params)), X, y)
+    assert np.allclose(first, second, rtol=1e-6, atol=1e-6), (
+        f"two fits with the same seed differ by up to {np.nanmax(np.abs(first - second)):.3g} µm; "
+        "seed every random source from a random_state parameter")
+
+
+def check_model_pickle(factory: Factory, params: dict) -> None:
+    """A fitted model predicts the same after a pickle round trip."""
+    X, y = tiny_frames()
+    model = seeded(factory(**params))
+    Xm = _inputs(model, X, y)
+    before = model.fit(Xm, y).predict(Xm)
+    after = pickled(model).predict(Xm)
+    assert np.allclose(before, after, rtol=1e-9, atol=1e-9), "predictions changed after a pickle round trip"
+
+
+def check_search_space(factory: Factory, params: dict) -> None:
+    """``search_space()`` is well formed, names constructor parameters, and every sampled point fits."""
+    model = factory(**params)
+    space = type(model).search_space()
+    assert isinstance(space, dict), f"search_space() must return a dict, got {type(space).__name__}"
+    unknown = sorted(set(space) - set(model.get_params(deep=False)))
+    assert not unknown, f"search_space() names {unknown}, which are not constructor parameters"
+    try:
+        distributions(space)
+    except InputError as exc:
+        raise AssertionError(f"malformed search_space(): {exc}") from None
+    if not space:
+        return
+    X, y = tiny_frames()
+    with _optuna.quiet():
+        study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+        for _ in range(SEARCH_SPACE_POINTS):
+            trial = study.ask()
+            point = suggest(trial, space)
+            try:
+                pred = _fit_predict(seeded(factory(**{**params, **point})), X, y)
+            except Exception as exc:
+                raise AssertionError(f"search-space point {point} failed: {type(exc).__name__}: {exc}") from exc
+            assert np.isfinite(pred).all(), f"search-space point {point} gives non-finite predictions"
+            study.tell(trial, float(np.sqrt(((pred - y.to_numpy()) ** 2).mean())))
+
+
+MODEL_CHECKS = (*SHARED_CHECKS, check_fit_predict_shape, check_predictions_in_um, check_model_deterministic,
+                check_model_pickle, check_search_space)

@@ -1,0 +1,148 @@
+"""The plugin registry: loading entry points, broken and conflicting distributions, names and create.
+
+Fake distributions are real ``*.dist-info`` folders read with ``importlib.metadata.PathDistribution``; their
+modules live on ``sys.path`` only for the test, their metadata never, so the process-wide registry cannot see them.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import sys
+import textwrap
+import uuid
+
+import optuna
+import pytest
+
+from thermodrift.core import registry
+from thermodrift.core.errors import PluginError
+
+LINEAR_MODEL = """
+    from thermodrift.core.components import ThermalModel
+    from thermodrift.core.hookspecs import hookimpl
+
+    class Linear(ThermalModel):
+        def __init__(self, alpha=0.0):
+            self.alpha = alpha
+
+    def sampler(seed=None):
+        import optuna
+        return optuna.samplers.RandomSampler(seed=seed)
+
+    def unseeded_sampler():
+        import optuna
+        return optuna.samplers.RandomSampler()
+
+    @hookimpl
+    def thermodrift_register_models(registry):
+        registry.add("model", "{model}", Linear)
+
+    @hookimpl
+    def thermodrift_register_optimizers(registry):
+        registry.add("optimizer", "{model}_random", sampler)
+        registry.add("optimizer", "{model}_unseeded", unseeded_sampler)
+"""
+
+
+@pytest.fixture
+def make_dist(tmp_path, monkeypatch):
+    """``make_dist(dist_name, {entry_point: module_source})`` -> the distribution's entry points."""
+    src = tmp_path / "src"
+    src.mkdir()
+    monkeypatch.syspath_prepend(str(src))
+    created: list[str] = []
+
+    def make(dist_name: str, plugins: dict[str, str]) -> list[importlib.metadata.EntryPoint]:
+        lines = []
+        for ep_name, source in plugins.items():
+            module = f"plugin_{uuid.uuid4().hex[:10]}"
+            (src / f"{module}.py").write_text(textwrap.dedent(source))
+            lines.append(f"{ep_name} = {module}")
+            created.append(module)
+        info = tmp_path / "meta" / f"{dist_name.replace('-', '_')}-1.0.dist-info"
+        info.mkdir(parents=True)
+        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist_name}\nVersion: 1.0\n")
+        (info / "entry_points.txt").write_text("[thermodrift]\n" + "\n".join(lines) + "\n")
+        return list(importlib.metadata.PathDistribution(info).entry_points)
+
+    yield make
+    for module in created:
+        sys.modules.pop(module, None)
+
+
+def test_a_broken_distribution_is_reported_by_name_and_the_rest_load(make_dist):
+    broken = make_dist("broken-plugin", {"boom": "raise RuntimeError('missing native library libfoo.so')"})
+    failing_hook = make_dist("hook-fails-plugin", {"hooks": """
+        from thermodrift.core.hookspecs import hookimpl
+
+        @hookimpl
+        def thermodrift_register_models(registry):
+            raise KeyError("no such config")
+    """})
+    fine = make_dist("fine-plugin", {"models": LINEAR_MODEL.format(model="fine_linear")})
+
+    reg = registry.load(broken + failing_hook + fine)
+
+    by_dist = {key.split(" (")[0]: error for key, error in reg.failures.items()}
+    assert by_dist.keys() == {"broken-plugin", "hook-fails-plugin"}
+    assert reg.failures["broken-plugin (boom)"] == "RuntimeError: missing native library libfoo.so"
+    assert by_dist["hook-fails-plugin"] == "KeyError: 'no such config'"
+    assert reg.names("model") == ["fine_linear"]
+    assert reg.get("model", "fine_linear").origin == "fine-plugin"
+
+
+def test_a_misspelled_hook_is_reported_by_name_and_the_rest_load(make_dist):
+    typo = make_dist("typo-plugin", {"typo": """
+        from thermodrift.core.hookspecs import hookimpl
+
+        @hookimpl
+        def thermodrift_register_model(registry):
+            pass
+    """})
+    fine = make_dist("fine-plugin", {"models": LINEAR_MODEL.format(model="fine_linear")})
+
+    reg = registry.load(typo + fine)
+
+    assert "thermodrift_register_model" in reg.failures["typo-plugin (typo)"]
+    assert reg.names("model") == ["fine_linear"]
+
+
+def test_a_duplicate_name_raises_naming_both_origins(make_dist):
+    first = make_dist("alpha-plugin", {"models": LINEAR_MODEL.format(model="twin")})
+    second = make_dist("beta-plugin", {"models": LINEAR_MODEL.format(model="twin")})
+    with pytest.raises(PluginError, match=r"duplicate model name 'twin'.*alpha-plugin.*beta-plugin"):
+        registry.load(first + second)
+
+
+def test_names_create_and_their_errors(make_dist):
+    reg = registry.load(make_dist("demo-plugin", {"models": LINEAR_MODEL.format(model="lin")}))
+    assert reg.names("model") == ["lin"]
+    assert reg.names("optimizer") == ["lin_random", "lin_unseeded"]
+    assert reg.names("selector") == []
+
+    model = reg.create("model", "lin", alpha=0.5)
+    assert type(model).__name__ == "Linear" and model.get_params() == {"alpha": 0.5}
+    sampler = reg.create("optimizer", "lin_random", seed=0)
+    assert isinstance(sampler, optuna.samplers.BaseSampler)
+
+    with pytest.raises(PluginError, match=r"unknown model 'nope'; known: lin"):
+        reg.create("model", "nope")
+    with pytest.raises(PluginError, match=r"unknown component kind 'models'"):
+        reg.names("models")
+    with pytest.raises(PluginError, match=r"'lin_unseeded' factory does not accept a seed"):
+        reg.create("optimizer", "lin_unseeded", seed=0)
+
+
+def test_the_module_api_builds_builtin_and_third_party_components():
+    assert {"mlr", "persistence", "ridge_demo"} <= set(registry.names("model"))
+    assert {"random", "tpe", "cmaes", "gp"} <= set(registry.names("optimizer"))
+    assert isinstance(registry.create("optimizer", "tpe", seed=0), optuna.samplers.TPESampler)
+    assert registry.create("model", "ridge_demo", alpha=0.1).get_params() == {"alpha": 0.1}
+
+
+def test_the_third_party_model_comes_from_its_distribution():
+    reg = registry.load()
+    component = reg.get("model", "ridge_demo")
+    assert (component.origin, component.module) == ("thermodrift-example-plugin", "thermodrift_example_plugin")
+    assert "pkg://thermodrift_example_plugin.conf" in reg.searchpaths
+    assert all(reg.get("model", n).origin == "thermodrift" for n in ("mlr", "persistence"))

@@ -1,0 +1,1 @@
+"""Hydra config groups of the plugin, found through ``pkg://thermodrift_example_plugin.conf``."""
