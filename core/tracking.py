@@ -115,7 +115,7 @@ def log_result(result, params: dict[str, Any]) -> None:
 
 def comparison(result) -> pd.DataFrame:
     """Held-out metrics (channel mean, averaged over folds) of the model and each baseline, one row each."""
-    rows = {("model: " + result.spec.model if who == "model" else who): result.summary_metrics(who)
+    rows = {_label(result, who): result.summary_metrics(who)
             for who in result.folds[0].metrics}
     return pd.DataFrame(rows).T
 
@@ -136,7 +136,7 @@ def figures(result) -> dict[str, Any]:
         ax = axes[i, 0]
         ax.plot(hours, fold.y_true[col].to_numpy(), color="black", lw=1.2, label="measured")
         for who, pred in fold.predictions.items():
-            ax.plot(hours, pred[:, i], lw=1, label=result.spec.model if who == "model" else who,
+            ax.plot(hours, pred[:, i], lw=1, label=_label(result, who),
                     ls="-" if who == "model" else "--")
         ax.set_ylabel(f"{col} [µm]")
         ax.legend(fontsize=7, loc="best")
@@ -146,7 +146,7 @@ def figures(result) -> dict[str, Any]:
     for i, col in enumerate(fold.y_true.columns):
         for who, pred in fold.predictions.items():
             axes[i, 0].plot(hours, fold.y_true[col].to_numpy() - pred[:, i], lw=1,
-                            label=result.spec.model if who == "model" else who)
+                            label=_label(result, who))
         axes[i, 0].axhline(0, color="grey", lw=0.5)
         axes[i, 0].set_ylabel(f"residual {col} [µm]")
         axes[i, 0].legend(fontsize=7)
@@ -193,6 +193,11 @@ class SweepRun(Callback):
                 pd.DataFrame(rows).to_csv(path, index=False)
                 client.log_artifact(parent, str(path))
         client.set_terminated(parent)
+
+
+def _label(result, who: str) -> str:
+    """Display name of a prediction source: ``model: <name>`` or the baseline's name."""
+    return f"model: {result.spec.model}" if who == "model" else who
 
 
 def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:

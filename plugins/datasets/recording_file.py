@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import tempfile
+from pathlib import Path
+
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.recording import Recording, load_recording
 
@@ -9,6 +12,18 @@ from thermodrift.core.recording import Recording, load_recording
 def recording_file(table: str, manifest: str) -> Recording:
     """Load ``table`` with ``manifest``; bad input raises InputError naming file, column and row."""
     return load_recording(table, manifest)
+
+
+def _test_params() -> list[dict]:
+    """The conformance suite's tiny recording written to a temporary CSV and manifest."""
+    from thermodrift.testing.data import tiny_recording
+
+    folder = Path(tempfile.mkdtemp(prefix="thermodrift-recording-file-"))
+    tiny_recording(seed=0).write(folder / "tiny.csv", folder / "tiny.yaml")
+    return [{"table": str(folder / "tiny.csv"), "manifest": str(folder / "tiny.yaml")}]
+
+
+recording_file.get_test_params = _test_params
 
 
 @hookimpl
