@@ -1,0 +1,46 @@
+"""Optuna's own sampler conformance suite (``optuna.testing.pytest_samplers``) on every population sampler,
+built through the registry exactly as a study builds it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import yaml
+from optuna.testing.pytest_samplers import BasicSamplerTestCase, RelativeSamplerTestCase, SingleOnlySamplerTestCase
+
+from thermodrift.core import registry
+
+OURS = ["pso", "pso_constriction", "gwo", "fa", "rbmo", "rbmox"]
+REGISTRY = registry.load()
+CONF = Path(__file__).resolve().parents[1] / "conf" / "optimizer"
+
+
+def test_all_population_samplers_are_registered():
+    assert set(OURS) <= set(REGISTRY.names("optimizer"))
+    for name in OURS:
+        sampler = REGISTRY.create("optimizer", name, seed=0)  # defaults for everything but the seed
+        assert sampler.population_size >= 2 and sampler.n_trials == 100
+
+
+# Each sampler with each of its cheap parameter sets (population sizes of 3-12: the suite's studies have
+# 1-20 trials, so small populations exercise several generations and slot re-proposals).
+CASES = [(name, i) for name in OURS for i in range(len(REGISTRY.get("optimizer", name).test_params()))]
+
+
+class TestPopulationSamplers(BasicSamplerTestCase, RelativeSamplerTestCase, SingleOnlySamplerTestCase):
+    @pytest.fixture(params=CASES, ids=[f"{name}-{i}" for name, i in CASES])
+    def sampler(self, request):
+        name, i = request.param
+        component = REGISTRY.get("optimizer", name)
+        params = component.test_params()[i]
+        return lambda: component.factory(seed=0, **params)
+
+
+@pytest.mark.parametrize("config", ["pso", "pso_constriction", "pso_s1", "pso_s2", "pso_s3", "gwo", "fa", "rbmo",
+                                    "rbmox"])
+def test_optimizer_configs_build_their_sampler(config):
+    spec = yaml.safe_load((CONF / f"{config}.yaml").read_text())
+    sampler = REGISTRY.create("optimizer", spec["name"], seed=0, n_trials=50, **spec["params"])
+    given = {k: v for k, v in spec["params"].items() if v is not None}  # None: derived from the budget
+    assert {k: getattr(sampler, k) for k in given} == given
