@@ -18,7 +18,7 @@ VERBS = {
     "plugins": ("thermodrift.core.plugins_cmd", "List every registered component by kind with its origin."),
     "validate": ("thermodrift.core.validate_cmd", "Check a recording (table + manifest) and print a summary."),
     "run": ("thermodrift.core.app", "Run experiments (Hydra overrides; -m for a grid)."),
-    "simulate": ("thermodrift.core.physics.simulate", "Write a simulated recording (table + manifest + truth)."),
+    "simulate": ("thermodrift.core.physics.simulate_cmd", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.physics.calibrate_cmd", "Calibrate a thermal network to a recording."),
     "bench": ("thermodrift.core.bench_cmd", "Run the benchmarks (samplers, physics)."),
 }

@@ -1,0 +1,37 @@
+"""ambient_coupling — structure exchanging heat with the room air (extra convection to ambient).
+
+Adds a convection edge to ``ambient`` on each target node (default: the structure nodes, else the housing),
+sharing ``G_W_K`` equally.
+
+Parameters: ``G_W_K`` = 3.0 [0, 50] W/K (neutral 0).
+Direction: the target nodes and the displacement channels follow the ambient temperature more closely and
+with less lag; with the spindle stopped the drift tracks the daily cycle.
+Residual signature when missing: present with the spindle stopped; follows the first-order-lagged ambient
+(τ of hours); 24 h peak; same sign on the structural channels. Test: regress on lagged ambient, spindle-off
+windows.
+"""
+
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.network import Edge
+
+
+class AmbientCoupling(Mechanism):
+    id = "ambient_coupling"
+    parameters = (Parameter("G_W_K", 3.0, 0.0, 50.0, "W/K", 0.0, "extra conductance to ambient, shared by the nodes"),)
+    options = {"nodes": None, "groups": ("structure", "housing")}
+    signature = "present with the spindle stopped; follows lagged ambient (τ hours); 24 h peak; same sign on structure"
+
+    def _apply(self, network, p, o):
+        nodes = target_nodes(network, self.id, o["nodes"], o["groups"])
+        names = [e.name for e in network.edges]
+        edges = []
+        for n in nodes:
+            names.append(unique_name(names, f"{n}-ambient_coupling"))
+            edges.append(Edge(names[-1], n, "ambient", p["G_W_K"] / len(nodes), kind="convection"))
+        return network.add(*edges)
+
+
+@hookimpl
+def thermodrift_register_mechanisms(registry):
+    registry.add("mechanism", AmbientCoupling.id, AmbientCoupling)

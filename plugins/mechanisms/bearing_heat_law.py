@@ -1,0 +1,44 @@
+"""bearing_heat_law — the bearings' heat follows another speed law than the network assumes.
+
+Shifts the viscous speed exponent of every bearing source (heat at the reference speed unchanged) and adds a
+viscosity–temperature dependence (viscous heat falls by γ per K as the oil warms). A network that assumed
+heat ∝ n misses the Palmgren n^(5/3) viscous law with ``exponent_shift`` = +2/3.
+
+Parameters: ``exponent_shift`` = +0.667 [−1, 1.5] (neutral 0), ``viscosity_coeff_per_K`` = 0.01 [0, 0.04] 1/K
+(neutral 0).
+Direction: a positive shift lowers the heat below the reference speed (steady ΔT across plateaus grows faster
+with n); γ > 0 lowers the heat as the bearings warm (a flatter warm-up).
+Residual signature when missing: steady ΔT vs n across plateaus follows another power law (n vs n^(5/3)).
+Test: fit the exponent across speed levels.
+"""
+
+import dataclasses
+
+from thermodrift.core.errors import InputError
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.physics.mechanisms import Mechanism, Parameter
+from thermodrift.core.physics.network import BearingSource
+
+
+class BearingHeatLaw(Mechanism):
+    id = "bearing_heat_law"
+    parameters = (
+        Parameter("exponent_shift", 2 / 3, -1.0, 1.5, "1", 0.0, "added to the viscous speed exponent"),
+        Parameter("viscosity_coeff_per_K", 0.01, 0.0, 0.04, "1/K", 0.0, "added relative viscous-heat fall per K"),
+    )
+    options = {"sources": None}
+    signature = "steady ΔT vs n across plateaus follows another power law (n vs n^(5/3))"
+
+    def _apply(self, network, p, o):
+        chosen = o["sources"]
+        bearings = [s for s in network.sources if isinstance(s, BearingSource) and (not chosen or s.name in chosen)]
+        if not bearings:
+            raise InputError(f"mechanism {self.id!r}: network {network.name!r} has no bearing source")
+        return network.replace(*[dataclasses.replace(
+            s, viscous_exponent=max(0.0, s.viscous_exponent + p["exponent_shift"]),
+            viscosity_coeff_per_K=s.viscosity_coeff_per_K + p["viscosity_coeff_per_K"]) for s in bearings])
+
+
+@hookimpl
+def thermodrift_register_mechanisms(registry):
+    registry.add("mechanism", BearingHeatLaw.id, BearingHeatLaw)

@@ -1,0 +1,31 @@
+"""centrifugal_growth — the spindle nose grows under centrifugal force (and bearing contact change) at once.
+
+Adds c·(n/n_ref)² µm to the outputs along ``axes`` (default ``z``, else the first output): an instantaneous
+step at every speed change, with no thermal lag (0.3–1 µm in FL_THERMAL).
+
+Parameters: ``um_at_ref`` = 1.0 [−5, 5] µm at the reference speed (neutral 0).
+Direction: displacement jumps by c·(n₂² − n₁²)/n_ref² at each speed change.
+Residual signature when missing: instantaneous step at speed changes ∝ n², no lag. Test: step heights vs n².
+"""
+
+import dataclasses
+
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_outputs
+
+
+class CentrifugalGrowth(Mechanism):
+    id = "centrifugal_growth"
+    parameters = (Parameter("um_at_ref", 1.0, -5.0, 5.0, "um", 0.0, "growth at the reference speed"),)
+    options = {"axes": ("z",)}
+    signature = "instantaneous step at speed changes ∝ n², no lag"
+
+    def _apply(self, network, p, o):
+        names = target_outputs(network, self.id, o["axes"])
+        return network.replace(*[dataclasses.replace(out, centrifugal_um=out.centrifugal_um + p["um_at_ref"])
+                                 for out in network.outputs if out.name in names])
+
+
+@hookimpl
+def thermodrift_register_mechanisms(registry):
+    registry.add("mechanism", CentrifugalGrowth.id, CentrifugalGrowth)

@@ -1,0 +1,37 @@
+"""preload_feedback — thermally induced bearing preload: a warmer shaft tightens the bearings, which heat more.
+
+Adds at each bearing node a heat term gain·(n/n_ref)·(T_hot − T_cold), where hot is the shaft and cold the
+housing (options ``hot``/``cold``, default the first shaft and first housing node).
+
+Parameters: ``gain_W_K`` = 1.0 [0, 10] W/K per bearing at the reference speed (neutral 0).
+Direction: higher bearing temperatures and drift at high speed, growing super-linearly (self-reinforcing).
+Residual signature when missing: super-linear growth at high speed, ∝ (T_shaft − T_housing)·n. Test:
+likelihood-ratio test of the feedback term.
+"""
+
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.network import PreloadFeedback as FeedbackSource
+
+
+class PreloadFeedback(Mechanism):
+    id = "preload_feedback"
+    parameters = (Parameter("gain_W_K", 1.0, 0.0, 10.0, "W/K", 0.0, "extra heat per K of shaft–housing difference"),)
+    options = {"nodes": None, "hot": None, "cold": None}
+    signature = "super-linear, self-reinforcing growth at high speed; ∝ (T_shaft − T_housing)·n"
+
+    def _apply(self, network, p, o):
+        bearings = target_nodes(network, self.id, o["nodes"], ("bearing",))
+        hot = target_nodes(network, self.id, o["hot"], ("shaft",))[0]
+        cold = target_nodes(network, self.id, o["cold"], ("housing", "structure"))[0]
+        names = [s.name for s in network.sources]
+        added = []
+        for b in bearings:
+            names.append(unique_name(names, f"{b}_preload"))
+            added.append(FeedbackSource(names[-1], b, hot, cold, p["gain_W_K"]))
+        return network.add(*added)
+
+
+@hookimpl
+def thermodrift_register_mechanisms(registry):
+    registry.add("mechanism", PreloadFeedback.id, PreloadFeedback)

@@ -1,0 +1,36 @@
+"""sensor_lag — temperature sensors that lag the metal (a probe in a bore, a magnetic sensor on paint).
+
+Adds ``lag_s`` to the first-order time constant of the chosen temperature sensors (option ``sensors``; default
+every sensor of role ``temperature``). Node temperatures and displacements are unchanged; readings are not.
+
+Parameters: ``lag_s`` = 120 [0, 1800] s (neutral 0).
+Direction: readings rise later and overshoot less at speed steps; the reading lags the node by ≈ τ_s·dT/dt.
+Residual signature when missing: residual ≈ −τ_s·dT/dt: derivative spikes at speed steps. Test: regress on
+dT/dt; fit a lag per sensor.
+"""
+
+import dataclasses
+
+from thermodrift.core.errors import InputError
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.physics.mechanisms import Mechanism, Parameter
+
+
+class SensorLag(Mechanism):
+    id = "sensor_lag"
+    parameters = (Parameter("lag_s", 120.0, 0.0, 1800.0, "s", 0.0, "added first-order sensor time constant"),)
+    options = {"sensors": None}
+    signature = "residual ≈ −τ_s dT/dt: derivative spikes at speed steps"
+
+    def _apply(self, network, p, o):
+        chosen = o["sensors"]
+        sensors = [s for s in network.temperature_sensors
+                   if (s.name in chosen if chosen else s.role == "temperature")]
+        if not sensors:
+            raise InputError(f"mechanism {self.id!r}: network {network.name!r} has no such temperature sensors")
+        return network.replace(*[dataclasses.replace(s, lag_s=s.lag_s + p["lag_s"]) for s in sensors])
+
+
+@hookimpl
+def thermodrift_register_mechanisms(registry):
+    registry.add("mechanism", SensorLag.id, SensorLag)
