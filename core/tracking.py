@@ -36,7 +36,15 @@ def setup(uri: str | None, experiment: str) -> str:
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)
     logging.getLogger("mlflow.sklearn").setLevel(logging.ERROR)  # the cloudpickle caution: chosen knowingly
-    mlflow.set_tracking_uri(uri or DEFAULT_URI)
+    uri = uri or DEFAULT_URI
+    mlflow.set_tracking_uri(uri)
+    if mlflow.get_experiment_by_name(experiment) is None and uri.startswith("sqlite:///"):
+        # Artifacts beside the database file, not in whatever folder the first run happened to start from.
+        db = Path(uri.removeprefix("sqlite:///"))
+        try:
+            mlflow.create_experiment(experiment, artifact_location=(db.parent.resolve() / "mlruns").as_uri())
+        except mlflow.exceptions.MlflowException:  # a parallel job created it first
+            pass
     return mlflow.set_experiment(experiment).experiment_id
 
 

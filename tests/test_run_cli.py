@@ -78,8 +78,9 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     assert sorted(h.step for h in history) == [0, 1, 2, 3]
 
 
-def test_grid_makes_one_parent_and_tagged_children(workdir):
-    out = thermodrift(workdir, "run", "-m", "model=mlr,persistence", *TINY, "n_trials=2")
+def test_parallel_grid_makes_one_parent_and_tagged_children(workdir):
+    out = thermodrift(workdir, "run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
+                      "model=mlr,persistence", *TINY, "n_trials=2")
     assert out.returncode == 0, out.stderr[-2000:]
     all_runs = runs(workdir)
     parents = [r for r in all_runs if r.data.tags.get("kind") == "sweep"]
