@@ -49,15 +49,21 @@ class Selector(Component):
         raise NotImplementedError
 
 
+LAG_PREFIX = "lag1:"
+
+
 class ThermalModel(RegressorMixin, Component):
     """Maps temperatures (°C) to displacements (µm).
 
-    ``predict(X)`` returns an array of shape (n_samples, n_displacement_channels) in µm. Models that read the
-    previous measured displacement (a reference, not a compensation model) set ``uses_target_history``; the
-    study then adds columns ``lag1:<channel>`` holding the previous sample's measured value in µm.
+    ``predict(X)`` returns an array of shape (n_samples, n_displacement_channels) in µm. ``X`` holds the
+    selected temperature columns, then the channels of every role in ``extra_input_roles`` (e.g. ``("speed",)``
+    for a physics model; rpm), then, for models that read the previous measured displacement (a reference, not
+    a compensation model: ``uses_target_history``), columns ``lag1:<channel>`` in µm. ``study.model_inputs``
+    builds it.
     """
 
     uses_target_history: ClassVar[bool] = False
+    extra_input_roles: ClassVar[tuple[str, ...]] = ()
 
     def fit(self, X: pd.DataFrame, y: pd.DataFrame) -> "ThermalModel":
         y2 = _as_2d(y)

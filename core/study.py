@@ -23,7 +23,7 @@ import torch
 from thermodrift.core import registry, search_space, splits, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
-from thermodrift.plugins.models.persistence import LAG_PREFIX
+from thermodrift.core.components import LAG_PREFIX
 
 INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
@@ -111,24 +111,19 @@ class Job:
             raise InputError(f"{recording.source}: no input channel with roles {list(spec.input_roles)}")
         X_all = recording.data[features]
         y_all = recording.data[targets]
-        lags = y_all.shift(1).bfill().add_prefix(LAG_PREFIX)
 
         tune = folds[-1]
         selector = registry.create("selector", spec.selector,
                                    **_with_seed(registry.get("selector", spec.selector).factory,
                                                 spec.selector_params, spec.seed))
         selected = selector.fit(X_all.iloc[tune.train], y_all.iloc[tune.train]).selected_
+        frames: dict[str, pd.DataFrame] = {}
 
         def inputs(model_name: str, rows: np.ndarray) -> pd.DataFrame:
-            cls = registry.get("model", model_name).factory
-            X = X_all.iloc[rows][selected]
-            extra = [c for role in getattr(cls, "extra_input_roles", ()) for c in recording.columns(role)
-                     if c not in selected]
-            if extra:
-                X = pd.concat([X, recording.data.iloc[rows][extra]], axis=1)
-            if getattr(cls, "uses_target_history", False):
-                X = pd.concat([X, lags.iloc[rows]], axis=1)
-            return X
+            if model_name not in frames:
+                cls = registry.get("model", model_name).factory
+                frames[model_name] = model_inputs(recording, selected, cls, targets)
+            return frames[model_name].iloc[rows]
 
         train_rec = recording.select(tune.train)
         inner = splits.inner_fold(train_rec)
@@ -215,6 +210,19 @@ class Job:
                 storage = optuna.storages.RDBStorage(spec.storage, heartbeat_interval=30, grace_period=90)
         return optuna.create_study(study_name=spec.study_name or spec.default_study_name(), storage=storage,
                                    sampler=sampler, direction="minimize", load_if_exists=True)
+
+
+def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
+    """The input frame a model of class ``model_cls`` gets, for every row of ``recording``: the ``selected``
+    temperature columns (°C), the channels of its ``extra_input_roles`` (e.g. speed in rpm), and for models
+    that use the target history ``lag1:<target>``, the previous sample's measured displacement (µm)."""
+    X = recording.data[list(selected)]
+    extra = [c for role in getattr(model_cls, "extra_input_roles", ()) for c in recording.columns(role)
+             if c not in selected]
+    parts = [X, recording.data[extra]] if extra else [X]
+    if getattr(model_cls, "uses_target_history", False):
+        parts.append(recording.data[targets].shift(1).bfill().add_prefix(LAG_PREFIX))
+    return pd.concat(parts, axis=1) if len(parts) > 1 else X
 
 
 def _accepts(factory: Callable, param: str) -> bool:

@@ -62,9 +62,3 @@ def tiny_recording(seed: int = 0):
         channels[name] = Channel(name, "displacement", "um", {"axis": name.split("_")[1]})
     return Recording(_table(seed).copy(), channels, source="<thermodrift.testing tiny recording>")
 
-
-def with_target_history(X: pd.DataFrame, y: pd.DataFrame) -> pd.DataFrame:
-    """``X`` plus ``lag1:<channel>`` columns (previous sample's measured µm), as the study adds them."""
-    lagged = y.shift(1).bfill()
-    lagged.columns = [f"lag1:{c}" for c in y.columns]
-    return pd.concat([X, lagged], axis=1)

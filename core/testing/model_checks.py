@@ -1,7 +1,7 @@
 """Contract checks for thermal models (``thermodrift.core.components.ThermalModel``), run on the tiny recording.
 
-Models that read the measured displacement's history (``uses_target_history``) get the ``lag1:<channel>``
-columns the study adds.
+Models get their inputs exactly as a study builds them (``thermodrift.core.study.model_inputs``): the
+temperatures, the channels of their ``extra_input_roles`` and, where they use it, the target history.
 """
 
 from __future__ import annotations
@@ -13,7 +13,8 @@ import pandas as pd
 from thermodrift.core.errors import InputError
 from thermodrift.core.search_space import distributions, suggest
 from thermodrift.testing import _optuna
-from thermodrift.testing.data import tiny_frames, with_target_history
+from thermodrift.core.study import model_inputs
+from thermodrift.testing.data import tiny_frames, tiny_recording
 from thermodrift.testing.estimator_checks import SHARED_CHECKS, Factory, fitted_attributes, pickled, seeded
 
 SEARCH_SPACE_POINTS = 3
@@ -22,7 +23,8 @@ MAGNITUDE_BAND = (0.1, 10.0)
 
 
 def _inputs(model, X: pd.DataFrame, y: pd.DataFrame) -> pd.DataFrame:
-    return with_target_history(X, y) if getattr(model, "uses_target_history", False) else X
+    """``X`` as the study would pass it to this model (plus extra-role and target-history columns)."""
+    return model_inputs(tiny_recording(), list(X.columns), type(model), list(y.columns)).loc[X.index]
 
 
 def _fit_predict(model, X: pd.DataFrame, y: pd.DataFrame) -> np.ndarray:

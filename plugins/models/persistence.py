@@ -4,10 +4,8 @@ A reference, not a compensation model: it reads the target's own last sample, wh
 not measure. A learned model that cannot beat it on a held-out condition has learned little.
 """
 
-from thermodrift.core.components import ThermalModel
+from thermodrift.core.components import LAG_PREFIX, ThermalModel
 from thermodrift.core.hookspecs import hookimpl
-
-LAG_PREFIX = "lag1:"
 
 
 class Persistence(ThermalModel):
