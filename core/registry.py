@@ -46,12 +46,6 @@ class Component:
     origin: str
     module: str
 
-    def test_params(self) -> list[dict]:
-        """Cheap parameter sets for the conformance suite (``factory.get_test_params()``, else ``[{}]``)."""
-        getter = getattr(self.factory, "get_test_params", None)
-        params = getter() if callable(getter) else [{}]
-        return list(params) or [{}]
-
 
 @dataclass
 class Registry:

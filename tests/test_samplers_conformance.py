@@ -10,6 +10,7 @@ import yaml
 from optuna.testing.pytest_samplers import BasicSamplerTestCase, RelativeSamplerTestCase, SingleOnlySamplerTestCase
 
 from thermodrift.core import registry
+from thermodrift.testing.suite import parameter_sets
 
 OURS = ["pso", "pso_constriction", "gwo", "fa", "rbmo", "rbmox"]
 REGISTRY = registry.load()
@@ -25,7 +26,7 @@ def test_all_population_samplers_are_registered():
 
 # Each sampler with each of its cheap parameter sets (population sizes of 3-12: the suite's studies have
 # 1-20 trials, so small populations exercise several generations and slot re-proposals).
-CASES = [(name, i) for name in OURS for i in range(len(REGISTRY.get("optimizer", name).test_params()))]
+CASES = [(name, i) for name in OURS for i in range(len(parameter_sets(REGISTRY.get("optimizer", name).factory)))]
 
 
 class TestPopulationSamplers(BasicSamplerTestCase, RelativeSamplerTestCase, SingleOnlySamplerTestCase):
@@ -33,7 +34,7 @@ class TestPopulationSamplers(BasicSamplerTestCase, RelativeSamplerTestCase, Sing
     def sampler(self, request):
         name, i = request.param
         component = REGISTRY.get("optimizer", name)
-        params = component.test_params()[i]
+        params = parameter_sets(component.factory)[i]
         return lambda: component.factory(seed=0, **params)
 
 
