@@ -41,14 +41,19 @@ class Split(ABC):
         return type(self).__name__
 
 
-def inner_fold(recording, fraction: float = 0.25) -> Fold:
+def inner_fold(recording, fraction: float = 0.25, min_share: float = 0.05) -> Fold:
     """Validation fold inside a training part: hold out its last working condition when it has two or more,
-    else its last ``fraction`` of time."""
+    else its last ``fraction`` of time. Conditions with under ``min_share`` of the rows at the end (the first
+    samples of a held-out block that a time cut left in the training part) are left out of both sides."""
     labels = recording.conditions().to_numpy()
     order = list(dict.fromkeys(labels))
+    while order and np.count_nonzero(labels == order[-1]) < min_share * len(labels):
+        order.pop()
     if len(order) >= 2:
-        last = labels == order[-1]
-        return _fold(np.flatnonzero(~last), np.flatnonzero(last), f"inner: condition {order[-1]} held out")
+        val = labels == order[-1]
+        train = np.flatnonzero(np.isin(labels, order[:-1]))
+        return _fold(train[train < np.flatnonzero(val)[0]], np.flatnonzero(val),
+                     f"inner: condition {order[-1]} held out")
     return Chronological(test_fraction=fraction).folds(recording)[0]
 
 

@@ -215,14 +215,19 @@ class Job:
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
     """The input frame a model of class ``model_cls`` gets, for every row of ``recording``: the ``selected``
     temperature columns (°C), the channels of its ``extra_input_roles`` (e.g. speed in rpm), and for models
-    that use the target history ``lag1:<target>``, the previous sample's measured displacement (µm)."""
+    that use the target history ``lag1:<target>``, the previous sample's measured displacement (µm).
+    ``attrs["roles"]`` maps every column to its role."""
     X = recording.data[list(selected)]
     extra = [c for role in getattr(model_cls, "extra_input_roles", ()) for c in recording.columns(role)
              if c not in selected]
     parts = [X, recording.data[extra]] if extra else [X]
     if getattr(model_cls, "uses_target_history", False):
         parts.append(recording.data[targets].shift(1).bfill().add_prefix(LAG_PREFIX))
-    return pd.concat(parts, axis=1) if len(parts) > 1 else X
+    out = pd.concat(parts, axis=1) if len(parts) > 1 else X.copy()
+    # Each column's role travels with the frame (and its row slices), so models need not guess from names.
+    out.attrs["roles"] = {c: recording.channels[c].role if c in recording.channels else "target_history"
+                          for c in out.columns}
+    return out
 
 
 def _accepts(factory: Callable, param: str) -> bool:

@@ -77,3 +77,15 @@ def test_inner_fold_holds_out_last_training_condition(rec):
 def test_make_split_rejects_unknown():
     with pytest.raises(InputError, match="unknown split"):
         make_split("random_rows")
+
+
+def test_inner_fold_ignores_a_sliver_of_the_next_condition(rec):
+    labels = rec.conditions().to_numpy()
+    order = list(dict.fromkeys(labels))
+    first_of_last = int(np.flatnonzero(labels == order[-1])[0])
+    part = rec.select(np.arange(first_of_last + 2))  # a time cut that keeps 2 samples of the last block
+    inner = inner_fold(part)
+    part_labels = part.conditions().to_numpy()
+    assert set(part_labels[inner.test]) == {order[-2]}
+    assert order[-1] not in set(part_labels[inner.train]) and len(inner.test) > 2
+

@@ -1,0 +1,229 @@
+"""The mismatch map: where, after calibration, the model still disagrees with the recording.
+
+The recording is cut into windows from its speed schedule (:func:`schedule_windows`): each speed change opens
+a short ``step`` window (the first ``step_s`` seconds, where instantaneous growth, sensor lag and fast modes
+show), followed by the rest of the block as ``running`` or ``stopped``. For every channel and window the map
+holds the share of the calibration objective (the sum of squared residuals divided by each channel's noise σ,
+see :mod:`thermodrift.core.physics.calibrate`) that falls there, the RMS and mean residual in the channel's
+unit (K or µm), and the share relative to the window's length (``excess``: 1 is what a uniformly spread misfit
+gives; ≫ 1 marks a localised mismatch). Cells, windows and channels are ranked by their share; the missing-
+physics finder starts from the top of that list.
+
+Outputs: :meth:`MismatchMap.to_dict` (``mismatch.json``), :func:`plot_heatmap` (time × channel PNG),
+:func:`plot_before_after` (measured, initial guess, calibrated) and :func:`log_to_mlflow`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from thermodrift.core.physics.calibrate import CalibrationResult, run_segments
+
+STEP_WINDOW_S = 900.0
+
+
+@dataclass(frozen=True)
+class Window:
+    """A time window of the schedule: ``kind`` is step, running or stopped; times in s (half-open)."""
+
+    name: str
+    kind: str
+    start_s: float
+    end_s: float
+    speed_rpm: float
+
+
+def schedule_windows(time_s: np.ndarray, speed_rpm: np.ndarray, step_s: float = STEP_WINDOW_S) -> list[Window]:
+    """Windows of a speed schedule: per constant-speed block a ``step`` window after each change, then the rest."""
+    t = np.asarray(time_s, dtype=float)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    end_of = lambda i: float(t[i]) if i < len(t) else float(t[-1] + dt)  # noqa: E731 (half-open ends)
+    out: list[Window] = []
+    prev = None
+    for a, b, level in run_segments(speed_rpm):
+        label = f"{level:g} rpm" if level > 0 else "stop"
+        kind = "running" if level > 0 else "stopped"
+        start_h = t[a] / 3600.0
+        if prev is not None:
+            cut = min(int(np.searchsorted(t, t[a] + step_s)), b)
+            out.append(Window(f"step {prev:g}→{level:g} rpm at {start_h:.2f} h", "step", float(t[a]), end_of(cut),
+                              level))
+            a = cut
+        if a < b:
+            out.append(Window(f"{label} from {t[a] / 3600.0:.2f} h", kind, float(t[a]), end_of(b), level))
+        prev = level
+    return out
+
+
+@dataclass
+class MismatchMap:
+    """Residual shares per (channel, window); see the module docstring."""
+
+    windows: list[Window]
+    cells: pd.DataFrame       # one row per (channel, window): share, excess, rms, mean, samples
+    total_weighted_rss: float
+
+    def ranked_cells(self, top: int | None = None) -> pd.DataFrame:
+        cells = self.cells.sort_values("share", ascending=False)
+        return cells if top is None else cells.head(top)
+
+    def by_window(self) -> pd.DataFrame:
+        """Windows ranked by their share of the objective (summed over channels)."""
+        g = self.cells.groupby("window", sort=False).agg(share=("share", "sum"), kind=("kind", "first"),
+                                                         start_h=("start_h", "first"), end_h=("end_h", "first"),
+                                                         time_fraction=("time_fraction", "first"))
+        g["excess"] = g["share"] / g["time_fraction"].where(g["time_fraction"] > 0)
+        top = self.cells.loc[self.cells.groupby("window", sort=False)["share"].idxmax(), ["window", "channel"]]
+        g["top_channel"] = top.set_index("window")["channel"]
+        return g.sort_values("share", ascending=False)
+
+    def by_channel(self) -> pd.DataFrame:
+        """Channels ranked by their share of the objective (summed over windows)."""
+        g = self.cells.groupby("channel", sort=False).agg(share=("share", "sum"), kind=("kind_channel", "first"))
+        top = self.cells.loc[self.cells.groupby("channel", sort=False)["share"].idxmax(), ["channel", "window"]]
+        g["top_window"] = top.set_index("channel")["window"]
+        return g.sort_values("share", ascending=False)
+
+    def to_dict(self, top: int = 30) -> dict[str, Any]:
+        def records(df: pd.DataFrame, index_name: str) -> list[dict]:
+            return [{index_name: str(i), **{k: _plain(v) for k, v in row.items()}} for i, row in df.iterrows()]
+
+        cells = self.ranked_cells(top)
+        return {
+            "objective": "sum over channels of (residual / noise sigma)^2; share = fraction of it in a cell",
+            "total_weighted_rss": self.total_weighted_rss,
+            "windows": [{"name": w.name, "kind": w.kind, "start_h": w.start_s / 3600.0, "end_h": w.end_s / 3600.0,
+                         "speed_rpm": w.speed_rpm} for w in self.windows],
+            "ranked_windows": records(self.by_window(), "window"),
+            "ranked_channels": records(self.by_channel(), "channel"),
+            "ranked_cells": [{k: _plain(v) for k, v in row.items()} for _, row in cells.iterrows()],
+        }
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, (np.floating, float)):
+        return float(v) if np.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+def mismatch_map(result: CalibrationResult, windows: Sequence[Window] | None = None,
+                 step_s: float = STEP_WINDOW_S) -> MismatchMap:
+    """The mismatch map of a calibration (residuals of the calibrated model on the full recording)."""
+    t = result.time_s
+    windows = list(windows) if windows is not None else schedule_windows(t, result.speed_rpm, step_s)
+    resid = result.residuals
+    z2 = (resid / pd.Series(result.sigma)) ** 2
+    total = float(z2.to_numpy().sum())
+    span = float(windows[-1].end_s - windows[0].start_s) if windows else 1.0
+    rows = []
+    for w in windows:
+        mask = (t >= w.start_s) & (t < w.end_s)
+        frac = (w.end_s - w.start_s) / span
+        for ch in resid.columns:
+            r = resid[ch].to_numpy()[mask]
+            share = float(z2[ch].to_numpy()[mask].sum()) / total if total > 0 else 0.0
+            rows.append({"channel": ch, "window": w.name, "kind": w.kind, "kind_channel": result.channel_kind[ch],
+                         "start_h": w.start_s / 3600.0, "end_h": w.end_s / 3600.0, "time_fraction": frac,
+                         "share": share, "excess": share * len(resid.columns) / frac if frac > 0 else np.nan,
+                         "rms": float(np.sqrt(np.mean(r ** 2))) if len(r) else np.nan,
+                         "mean": float(np.mean(r)) if len(r) else np.nan, "samples": int(mask.sum()),
+                         "unit": "K" if result.channel_kind[ch] == "temperature" else "um"})
+    return MismatchMap(windows, pd.DataFrame(rows), total)
+
+
+def plot_heatmap(mm: MismatchMap, path: str | Path, speed: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
+    """Time × channel heatmap of each cell's share of the objective (%), with the speed schedule on top."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import LogNorm
+
+    channels = list(dict.fromkeys(mm.cells["channel"]))
+    edges = np.r_[[w.start_s for w in mm.windows], mm.windows[-1].end_s] / 3600.0
+    grid = mm.cells.pivot_table(index="channel", columns="window", values="share", sort=False)
+    grid = grid.reindex(index=channels, columns=[w.name for w in mm.windows]).to_numpy() * 100.0
+    positive = grid[grid > 0]
+    norm = LogNorm(vmin=max(positive.min(), positive.max() * 1e-4), vmax=positive.max()) if len(positive) else None
+    fig, (ax_s, ax) = plt.subplots(2, 1, figsize=(12, 2.0 + 0.28 * len(channels)), sharex=True,
+                                   gridspec_kw={"height_ratios": [1, max(3, len(channels) / 3)]})
+    if speed is not None:
+        ax_s.plot(speed[0] / 3600.0, speed[1], color="k", lw=0.8)
+    ax_s.set_ylabel("rpm")
+    mesh = ax.pcolormesh(edges, np.arange(len(channels) + 1), np.clip(grid, norm.vmin if norm else 0, None),
+                         cmap="magma_r", norm=norm, shading="flat")
+    ax.set_yticks(np.arange(len(channels)) + 0.5, channels, fontsize=7)
+    ax.invert_yaxis()
+    ax.set_xlabel("time (h)")
+    fig.colorbar(mesh, ax=[ax_s, ax], label="share of weighted residual sum of squares (%)")
+    ax_s.set_title("Mismatch map: where the calibrated model misses (windows from the speed schedule)")
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_before_after(result: CalibrationResult, path: str | Path, mm: MismatchMap | None = None,
+                      extra_temperatures: int = 3) -> Path:
+    """Measured vs initial guess vs calibrated: every displacement channel plus the temperature channels that
+    carry most of the mismatch (``extra_temperatures``)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    disp = [c for c, k in result.channel_kind.items() if k == "displacement"]
+    temps = [c for c, k in result.channel_kind.items() if k == "temperature"]
+    if mm is not None:
+        ranked = [c for c in mm.by_channel().index if c in temps]
+        temps = ranked[:extra_temperatures]
+    else:
+        temps = temps[:extra_temperatures]
+    chans = disp + temps
+    fig, axes = plt.subplots(len(chans), 1, figsize=(11, 1.9 * len(chans) + 0.5), sharex=True, squeeze=False)
+    h = result.time_s / 3600.0
+    for ax, c in zip(axes[:, 0], chans):
+        unit = "µm" if result.channel_kind[c] == "displacement" else "°C"
+        ax.plot(h, result.measured[c], color="k", lw=0.7, label="measured")
+        ax.plot(h, result.predicted_initial[c], color="tab:blue", lw=0.8, ls="--",
+                label=f"before (initial guess), RMSE {result.rmse_initial[c]:.3g} {unit}")
+        ax.plot(h, result.predicted[c], color="tab:red", lw=0.9,
+                label=f"after (calibrated), RMSE {result.rmse[c]:.3g} {unit}")
+        ax.set_ylabel(f"{c}", fontsize=8)
+        ax.legend(fontsize=7, loc="upper left", ncol=3, frameon=False)
+    axes[-1, 0].set_xlabel("time (h)")
+    fig.suptitle(f"Calibration of network {result.network.name!r}: before and after", y=1.0)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return Path(path)
+
+
+def log_to_mlflow(result: CalibrationResult, mm: MismatchMap, out_dir: str | Path, tracking_uri: str | None,
+                  run_name: str = "calibrate", experiment: str = "calibrate") -> str:
+    """Log RMSEs, the objective and every file in ``out_dir`` to an MLflow run; returns the run id."""
+    import mlflow
+
+    from thermodrift.core import tracking
+
+    tracking.setup(tracking_uri, experiment)
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
+        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
+                           "confidence_level": result.level, "stopped": result.stopped[:250]})
+        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
+                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
+        for c in result.rmse:
+            metrics[tracking.metric_key("rmse", c)] = result.rmse[c]
+            metrics[tracking.metric_key("rmse_initial", c)] = result.rmse_initial[c]
+        top = mm.by_window().head(5)
+        for rank, (name, row) in enumerate(top.iterrows(), start=1):
+            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
+            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out_dir))
+        return run.info.run_id

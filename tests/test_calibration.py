@@ -1,0 +1,181 @@
+"""Calibration: known parameters inside their intervals, unidentifiable ones named, the auto baseline, the CLI."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from thermodrift.core import physics
+from thermodrift.core.errors import InputError
+from thermodrift.core.physics import calibrate as cal
+from thermodrift.core.physics import scenarios
+from thermodrift.core.physics.scenarios import Block
+from thermodrift.core.physics.synthetic import synthesize
+
+# Two nodes, both measured, one displacement channel: every conductance and the heat are identifiable.
+TWO_NODE = {
+    "name": "two_node", "reference_speed_rpm": 6000,
+    "nodes": {"a": {"capacity_J_K": 5000, "group": "bearing"}, "b": {"capacity_J_K": 20000, "group": "housing"}},
+    "edges": [{"a": "a", "b": "b", "G_W_K": 3.0}, {"a": "a", "b": "ambient", "G_W_K": 1.0, "kind": "convection"},
+              {"a": "b", "b": "ambient", "G_W_K": 4.0, "kind": "convection"}],
+    "sources": {"heat": {"type": "bearing", "node": "a", "viscous_W": 60.0}},
+    "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"a": 2.0, "b": 3.0}}},
+    "sensors": {"T_a": {"node": "a", "noise_K": 0.01}, "T_b": {"node": "b", "noise_K": 0.01},
+                "disp_z": {"output": "z", "noise_um": 0.05}},
+}
+# The sensor node ``a`` reaches ambient only through ``m``, a massless joint without a sensor: only the series
+# conductance G1·G2/(G1 + G2) shows in the data.
+SERIES = {
+    "name": "series", "reference_speed_rpm": 6000,
+    "nodes": {"a": {"capacity_J_K": 5000, "group": "bearing"}, "m": {"capacity_J_K": 1.0, "group": "housing"}},
+    "edges": [{"a": "a", "b": "m", "G_W_K": 3.0}, {"a": "m", "b": "ambient", "G_W_K": 2.0, "kind": "convection"}],
+    "sources": {"heat": {"type": "bearing", "node": "a", "viscous_W": 60.0}},
+    "sensors": {"T_a": {"node": "a", "noise_K": 0.01}},
+}
+FREE = ["edges.*.G_W_K", "sources.heat.viscous_W"]
+
+
+def _scenario(dt_s=60.0):
+    return scenarios.blocks([Block(0.25), Block(2, 3000), Block(1.5), Block(2, 6000), Block(1.5)], dt_s)
+
+
+def test_known_parameters_fall_inside_their_intervals_over_seeds():
+    truth = physics.network_from_dict(TWO_NODE)
+    values = truth.parameters()
+    start = truth.with_values({"edges.a-b.G_W_K": 4.5, "edges.a-ambient.G_W_K": 0.6, "edges.b-ambient.G_W_K": 6.0,
+                               "sources.heat.viscous_W": 40.0})
+    for seed in range(3):
+        # Pt100 offsets are drawn per seed: the projected sensor offsets must absorb them.
+        rec = synthesize(truth, _scenario(), seed).recording
+        result = cal.calibrate(rec, start, free=FREE, level=0.99)
+        assert {e.name for e in result.estimates} == {"edges.a-b.G_W_K", "edges.a-ambient.G_W_K",
+                                                      "edges.b-ambient.G_W_K", "sources.heat.viscous_W"}
+        for e in result.estimates:
+            assert e.low <= values[e.name] <= e.high, (seed, e)
+            assert e.ratio < 1.05, f"interval of {e.name} is uninformative: {e}"  # the test must be able to fail
+        assert not result.unidentifiable
+        # noise σ from the high-frequency residual matches the simulated sensor noise
+        assert result.sigma["T_a"] == pytest.approx(0.01, rel=0.3)
+        assert result.sigma["disp_z"] == pytest.approx(0.05, rel=0.3)
+        # sensitivities are solved linearly inside each step
+        assert result.linear["disp_z"]["a"] == pytest.approx(2.0, rel=0.02)
+        assert result.linear["disp_z"]["b"] == pytest.approx(3.0, rel=0.02)
+        assert result.rmse["disp_z"] < 0.07 and result.rmse["disp_z"] < result.rmse_initial["disp_z"]
+
+
+def test_series_conductances_without_a_sensor_between_are_reported_unidentifiable():
+    truth = physics.network_from_dict(SERIES)
+    rec = synthesize(truth, _scenario(), 0).recording
+    start = truth.with_values({"edges.a-m.G_W_K": 1.5, "edges.m-ambient.G_W_K": 5.0})
+    result = cal.calibrate(rec, start, free=FREE)
+    flagged = {u["parameter"] for u in result.unidentifiable}
+    assert flagged == {"edges.a-m.G_W_K", "edges.m-ambient.G_W_K"}
+    (direction,) = result.null_directions
+    assert set(direction["log_combination"]) == {"edges.a-m.G_W_K", "edges.m-ambient.G_W_K"}
+    # the identifiable combination is recovered: series conductance 1.2 W/K, heat 60 W
+    g1, g2 = result.estimate("edges.a-m.G_W_K").value, result.estimate("edges.m-ambient.G_W_K").value
+    assert g1 * g2 / (g1 + g2) == pytest.approx(1.2, rel=0.01)
+    heat = result.estimate("sources.heat.viscous_W")
+    assert heat.low <= 60.0 <= heat.high and heat.ratio < 1.05
+
+
+def test_trajectory_matches_the_engine_with_a_varying_ambient():
+    net = physics.load_network("demo_spindle")
+    scen = scenarios.demo(dt_s=60.0)
+    fast = cal.trajectory(physics.CompiledNetwork(net), scen)
+    ref = physics.simulate(net, scen).temperatures.to_numpy()
+    assert np.abs(fast - ref).max() < 1e-8
+
+
+def _auto_truth_recording(seed=0):
+    """Three sensor nodes heated from the speed, one slow hidden node in the displacement (an auto-like truth)."""
+    spec = {
+        "name": "auto_like", "reference_speed_rpm": 6000,
+        "nodes": {"s1": {"capacity_J_K": 1e4, "group": "bearing"}, "s2": {"capacity_J_K": 1e4, "group": "housing"},
+                  "s3": {"capacity_J_K": 1e4}, "h": {"capacity_J_K": 1e4, "group": "shaft"}},
+        "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
+                  for n, g in (("s1", 5.0), ("s2", 2.0), ("s3", 8.0), ("h", 1.0))],
+        "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.2}
+                    for n, q in (("s1", 60.0), ("s2", 10.0), ("s3", 5.0), ("h", 4.0))},
+        "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"s1": 1.5, "h": -4.0}}},
+        "sensors": {"T1": {"node": "s1", "noise_K": 0.01}, "T2": {"node": "s2", "noise_K": 0.01},
+                    "T3": {"node": "s3", "noise_K": 0.01}, "dz": {"output": "z", "noise_um": 0.05}},
+    }
+    net = physics.network_from_dict(spec)
+    scen = scenarios.blocks([Block(0.2), Block(3, 2000), Block(2), Block(3, 6000), Block(2), Block(2, 4000)], 60.0)
+    return net, synthesize(net, scen, seed).recording
+
+
+def test_auto_baseline_states_its_assumptions_and_fits_an_auto_like_truth():
+    _, rec = _auto_truth_recording()
+    auto = cal.auto_network(rec, hidden_nodes=1)
+    assert auto.channel_nodes == {"T1": "T1", "T2": "T2", "T3": "T3"}
+    # steady rises 12, 5 and 0.6 K: ≥ 50 % of the largest is bearing, ≥ 10 % housing, else structure
+    assert [n.group for n in auto.network.nodes] == ["bearing", "housing", "structure", "shaft"]
+    assert not any(e.b != "ambient" for e in auto.network.edges), "the baseline has no conduction between nodes"
+    result = cal.calibrate(rec, hidden_nodes=1)
+    doc = result.to_dict()
+    assert doc["assumptions"] == list(cal.AUTO_ASSUMPTIONS)
+    assert json.loads(json.dumps(doc)) == doc
+    # the truth is inside the auto family: the fit reaches the noise and recovers the heat exponent
+    assert result.rmse["T1"] < 0.02 and result.rmse["dz"] < 0.08
+    p = result.estimate("heat_exponent")
+    assert p.low <= 1.2 <= p.high
+    # capacity 1e4 J/K as in the truth, so conductances come out in W/K
+    g1 = result.estimate("G[T1]")
+    assert g1.low <= 5.0 <= g1.high
+
+
+def test_auto_needs_a_running_speed_channel():
+    _, rec = _auto_truth_recording()
+    stopped = rec.select(np.flatnonzero(rec.speed.to_numpy() == 0)[:10])
+    with pytest.raises(InputError, match="speed"):
+        cal.auto_network(stopped)
+
+
+def test_bad_free_pattern_and_targets_are_input_errors():
+    truth = physics.network_from_dict(TWO_NODE)
+    rec = synthesize(truth, _scenario(), 0).recording
+    with pytest.raises(InputError, match="match nothing"):
+        cal.calibrate(rec, truth, free=["edges.*.nonsense"])
+    with pytest.raises(InputError, match="not displacement channels"):
+        cal.calibrate(rec, truth, free=FREE, targets=["T_a"])
+
+
+def test_time_limit_keeps_the_best_point():
+    truth = physics.network_from_dict(TWO_NODE)
+    rec = synthesize(truth, _scenario(), 0).recording
+    start = truth.with_values({"edges.a-b.G_W_K": 9.0})
+    result = cal.calibrate(rec, start, free=FREE, max_seconds=0.0)
+    assert "time limit" in result.stopped
+    assert result.cost <= result.cost_initial
+
+
+def test_calibrate_cli_auto_writes_every_output(tmp_path):
+    _, rec = _auto_truth_recording()
+    table, manifest = tmp_path / "rec.csv", tmp_path / "rec.manifest.yaml"
+    rec.write(table, manifest)
+    out = tmp_path / "cal"
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    proc = subprocess.run([sys.executable, "-m", "thermodrift.core.cli", "calibrate", str(table), "--manifest",
+                           str(manifest), "--network", "auto", "--hidden-nodes", "1", "--out", str(out),
+                           "--max-seconds", "30", "--no-progress"], capture_output=True, text=True, env=env,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("calibration.json", "calibrated_network.yaml", "mismatch.json", "mismatch_heatmap.png",
+                 "before_after.png"):
+        assert (out / name).stat().st_size > 0, name
+    doc = json.loads((out / "calibration.json").read_text(encoding="utf-8"))
+    assert doc["assumptions"] and "heat_exponent" in doc["estimates"]
+    assert doc["rmse"]["dz"] < doc["rmse_initial"]["dz"]
+    assert json.loads((out / "mismatch.json").read_text(encoding="utf-8"))["ranked_windows"]
+    assert "top mismatch windows" in proc.stdout
+    calibrated = physics.load_network(str(out / "calibrated_network.yaml"))
+    assert calibrated.output("dz").sensitivity_um_K  # the estimated map is written into the spec
+    bad = subprocess.run([sys.executable, "-m", "thermodrift.core.cli", "calibrate", str(table), "--manifest",
+                          str(manifest), "--targets", "T1", "--out", str(out)], capture_output=True, text=True,
+                         env=env, timeout=120)
+    assert bad.returncode == 2 and "not displacement channels" in bad.stderr

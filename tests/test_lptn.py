@@ -1,0 +1,116 @@
+"""Models ``lptn`` and ``lptn_hybrid``: shapes, continuation of the physics, the hybrid's correction, configs."""
+
+import importlib.resources
+import pickle
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+
+from thermodrift.core import physics, registry
+from thermodrift.core.physics import scenarios
+from thermodrift.core.physics.scenarios import Block
+from thermodrift.core.physics.synthetic import synthesize
+from thermodrift.plugins.models.lptn import LPTN, LPTNHybrid, input_roles
+
+CHEAP = {"hidden_nodes": 1, "max_seconds": 20.0, "max_fit_samples": 800}
+
+# A spindle node heated by the speed and a column node that follows the room's daily cycle; the drift reads both.
+SPEC = {
+    "name": "spindle_and_column", "reference_speed_rpm": 6000,
+    "nodes": {"spindle": {"capacity_J_K": 1e4, "group": "bearing"},
+              "column": {"capacity_J_K": 5e4, "group": "structure"}},
+    "edges": [{"a": "spindle", "b": "ambient", "G_W_K": 4.0, "kind": "convection"},
+              {"a": "column", "b": "ambient", "G_W_K": 20.0, "kind": "convection"}],
+    "sources": {"bearing": {"type": "bearing", "node": "spindle", "viscous_W": 50.0}},
+    "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"spindle": 2.0, "column": 4.0}},
+                "x": {"axis": "x", "sensitivity_um_K": {"spindle": -1.0}}},
+    "sensors": {"T_spindle": {"node": "spindle", "noise_K": 0.01}, "T_column": {"node": "column", "noise_K": 0.01},
+                "disp_z": {"output": "z", "noise_um": 0.05}, "disp_x": {"output": "x", "noise_um": 0.05}},
+}
+
+
+@pytest.fixture(scope="module")
+def frames():
+    """24 h of speed blocks in a room swinging 17–27 °C that the recording does not measure."""
+    net = physics.network_from_dict(SPEC)
+    prog = [Block(0.5)] + [b for n in (2000, 5000, 3500, 6000, 1000, 4000) for b in (Block(2.5, n), Block(1.5))]
+    scen = scenarios.blocks(prog, 60.0, ambient=scenarios.daily_cycle(17.0, 27.0))
+    rec = synthesize(net, scen, 0).recording
+    assert not rec.columns("ambient")
+    X = rec.data[["T_spindle", "T_column", "spindle_rpm"]]
+    y = rec.data[["disp_z", "disp_x"]]
+    cut = int(np.searchsorted(rec.time_s, 16 * 3600.0))
+    return X, y, cut
+
+
+def test_fit_predict_shapes_for_one_and_two_channels(frames):
+    X, y, cut = frames
+    for cls in (LPTN, LPTNHybrid):
+        for targets in (y, y[["disp_z"]]):
+            model = cls(**CHEAP)
+            assert model.fit(X.iloc[:cut], targets.iloc[:cut]) is model
+            k = targets.shape[1]
+            assert model.predict(X.iloc[cut:]).shape == (len(X) - cut, k)
+            assert model.predict(X.iloc[10:60]).shape == (50, k)
+            assert np.isfinite(model.predict(X)).all()
+
+
+def test_prediction_continues_the_training_history(frames):
+    """Predicting the test part alone equals predicting everything and keeping the test rows."""
+    X, y, cut = frames
+    model = LPTN(**CHEAP).fit(X.iloc[:cut], y.iloc[:cut])
+    alone = model.predict(X.iloc[cut:])
+    whole = model.predict(X)
+    assert np.allclose(alone, whole[cut:], atol=1e-9)
+    inside = model.predict(X.iloc[cut // 2:])  # starts inside the training data: re-simulated from its start
+    assert np.allclose(inside, whole[cut // 2:], atol=1e-9)
+    assert not np.allclose(model.predict(X.iloc[cut:].set_axis(X.index[cut:] + 86400.0)), alone, atol=1e-3), \
+        "a day's gap (inputs held) must change the continued state"
+
+
+def test_hybrid_corrects_an_effect_the_baseline_leaves_out(frames):
+    """The room swing is not in the auto network (no ambient channel): the residual model takes it from T_column."""
+    X, y, cut = frames
+    target = y[["disp_z"]]
+    truth = target.iloc[cut:].to_numpy()[:, 0]
+    rmse = {}
+    for cls in (LPTN, LPTNHybrid):
+        model = cls(**CHEAP).fit(X.iloc[:cut], target.iloc[:cut])
+        rmse[cls.__name__] = float(np.sqrt(np.mean((model.predict(X.iloc[cut:])[:, 0] - truth) ** 2)))
+    assert rmse["LPTNHybrid"] < 0.5 * rmse["LPTN"], rmse
+    assert rmse["LPTNHybrid"] < 1.0, rmse
+
+
+def test_pickle_round_trip(frames):
+    X, y, cut = frames
+    model = LPTNHybrid(**CHEAP).fit(X.iloc[:cut], y.iloc[:cut])
+    again = pickle.loads(pickle.dumps(model))
+    assert np.array_equal(model.predict(X.iloc[cut:]), again.predict(X.iloc[cut:]))
+
+
+def test_input_roles_from_attrs_names_and_values():
+    t = pd.Index(np.arange(5) * 60.0, name="time_s")
+    X = pd.DataFrame({"T_spindle": 20.0 + np.arange(5), "n": [0, 0, 3000, 3000, 0], "T_air": 21.0}, index=t)
+    with pytest.raises(ValueError, match="speed"):
+        input_roles(X.assign(n=[0.0, 0.5, 1.0, 0.5, 0.0]))
+    assert input_roles(X) == ("n", None, ["T_spindle", "T_air"])  # speed found by its values, not by "spindle"
+    assert input_roles(X.rename(columns={"T_air": "ambient_C"})) == ("n", "ambient_C", ["T_spindle"])
+    X.attrs["roles"] = {"T_spindle": "temperature", "n": "speed", "T_air": "ambient"}
+    assert input_roles(X) == ("n", "T_air", ["T_spindle"])
+    assert input_roles(X, speed_column="n", ambient_column=None) == ("n", "T_air", ["T_spindle"])
+
+
+def test_registered_with_configs_and_search_spaces():
+    names = registry.names("model")
+    assert {"lptn", "lptn_hybrid"} <= set(names)
+    for name, cls in (("lptn", LPTN), ("lptn_hybrid", LPTNHybrid)):
+        assert cls.extra_input_roles == ("speed", "ambient")
+        conf = yaml.safe_load((importlib.resources.files("thermodrift.conf.model") / f"{name}.yaml").read_text())
+        assert conf["name"] == name
+        model = registry.create("model", name, **conf["params"])
+        assert isinstance(model, cls)
+        assert set(conf["search_space"]) == set(cls.search_space()) <= set(model.get_params())
+        for params in cls.get_test_params():
+            assert set(params) <= set(model.get_params())
