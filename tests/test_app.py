@@ -1,0 +1,35 @@
+"""Config composition of `thermodrift run` and its command-line handling, in-process."""
+
+import pytest
+from hydra import compose, initialize_config_module
+
+from thermodrift.core.app import _split_flags, spec_from_config
+
+
+@pytest.fixture()
+def cfg_for():
+    def make(*overrides):
+        with initialize_config_module(config_module="thermodrift.conf", version_base="1.3"):
+            return compose(config_name="config", overrides=list(overrides))
+    return make
+
+
+def test_defaults_are_the_embedded_main_job(cfg_for):
+    spec = spec_from_config(cfg_for())
+    assert (spec.dataset, spec.model, spec.optimizer, spec.split) == ("demo_spindle", "mlr", "tpe", "condition_holdout")
+    assert spec.baselines == ("persistence", "mlr") and spec.storage == "sqlite:///thermodrift.optuna.db"
+
+
+def test_experiment_preset_overrides_top_level_keys(cfg_for):
+    spec = spec_from_config(cfg_for("experiment=fl_thermal_5000rpm_heldout"))
+    assert spec.dataset == "fl_thermal" and spec.targets == ["ch3(um)"]
+    assert spec.split == "time_window"
+    assert spec.split_params == {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}
+    # a command-line override still wins over the preset
+    assert spec_from_config(cfg_for("experiment=fl_thermal_5000rpm_heldout", "targets=['ch4(um)']")).targets == ["ch4(um)"]
+
+
+def test_hydra_options_are_accepted_anywhere():
+    flags, rest = _split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
+    assert flags == ["-m", "--cfg", "job", "-cn", "other"]
+    assert rest == ["model=bp", "seed=1", "x=1"]
