@@ -7,7 +7,6 @@ import numpy as np
 import optuna
 import pandas as pd
 import pytest
-import torch
 import yaml
 from sklearn.base import clone
 
@@ -19,13 +18,7 @@ from thermodrift.plugins.models.bp import BPNetwork
 SAMPLE_S = 60.0
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    """Tiny networks run fastest single-threaded; a thread pool on a busy 2-core runner costs ms per op."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _recording(n=480, seed=0):

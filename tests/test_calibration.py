@@ -5,6 +5,8 @@ import os
 import subprocess
 import sys
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -15,17 +17,7 @@ from thermodrift.core.physics import scenarios
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
 
-# Two nodes, both measured, one displacement channel: every conductance and the heat are identifiable.
-TWO_NODE = {
-    "name": "two_node", "reference_speed_rpm": 6000,
-    "nodes": {"a": {"capacity_J_K": 5000, "group": "bearing"}, "b": {"capacity_J_K": 20000, "group": "housing"}},
-    "edges": [{"a": "a", "b": "b", "G_W_K": 3.0}, {"a": "a", "b": "ambient", "G_W_K": 1.0, "kind": "convection"},
-              {"a": "b", "b": "ambient", "G_W_K": 4.0, "kind": "convection"}],
-    "sources": {"heat": {"type": "bearing", "node": "a", "viscous_W": 60.0}},
-    "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"a": 2.0, "b": 3.0}}},
-    "sensors": {"T_a": {"node": "a", "noise_K": 0.01}, "T_b": {"node": "b", "noise_K": 0.01},
-                "disp_z": {"output": "z", "noise_um": 0.05}},
-}
+TWO_NODE = Path(__file__).parent / "data" / "two_node_network.yaml"  # two measured nodes, one displacement
 # The sensor node ``a`` reaches ambient only through ``m``, a massless joint without a sensor: only the series
 # conductance G1·G2/(G1 + G2) shows in the data.
 SERIES = {
@@ -43,7 +35,7 @@ def _scenario(dt_s=60.0):
 
 
 def test_known_parameters_fall_inside_their_intervals_over_seeds():
-    truth = physics.network_from_dict(TWO_NODE)
+    truth = physics.load_network(TWO_NODE)
     values = truth.parameters()
     start = truth.with_values({"edges.a-b.G_W_K": 4.5, "edges.a-ambient.G_W_K": 0.6, "edges.b-ambient.G_W_K": 6.0,
                                "sources.heat.viscous_W": 40.0})
@@ -137,7 +129,7 @@ def test_auto_needs_a_running_speed_channel():
 
 
 def test_bad_free_pattern_and_targets_are_input_errors():
-    truth = physics.network_from_dict(TWO_NODE)
+    truth = physics.load_network(TWO_NODE)
     rec = synthesize(truth, _scenario(), 0).recording
     with pytest.raises(InputError, match="match nothing"):
         cal.calibrate(rec, truth, free=["edges.*.nonsense"])
@@ -146,7 +138,7 @@ def test_bad_free_pattern_and_targets_are_input_errors():
 
 
 def test_time_limit_keeps_the_best_point():
-    truth = physics.network_from_dict(TWO_NODE)
+    truth = physics.load_network(TWO_NODE)
     rec = synthesize(truth, _scenario(), 0).recording
     start = truth.with_values({"edges.a-b.G_W_K": 9.0})
     result = cal.calibrate(rec, start, free=FREE, max_seconds=0.0)

@@ -1,6 +1,7 @@
 """Mismatch map: schedule windows, ranking a concealed effect first, figures, MLflow logging."""
 
 import json
+from pathlib import Path
 
 import mlflow
 import numpy as np
@@ -12,16 +13,7 @@ from thermodrift.core.physics import mismatch, scenarios
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
 
-SPEC = {
-    "name": "two_node", "reference_speed_rpm": 6000,
-    "nodes": {"a": {"capacity_J_K": 5000, "group": "bearing"}, "b": {"capacity_J_K": 20000, "group": "housing"}},
-    "edges": [{"a": "a", "b": "b", "G_W_K": 3.0}, {"a": "a", "b": "ambient", "G_W_K": 1.0, "kind": "convection"},
-              {"a": "b", "b": "ambient", "G_W_K": 4.0, "kind": "convection"}],
-    "sources": {"heat": {"type": "bearing", "node": "a", "viscous_W": 60.0}},
-    "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"a": 2.0, "b": 3.0}}},
-    "sensors": {"T_a": {"node": "a", "noise_K": 0.01}, "T_b": {"node": "b", "noise_K": 0.01},
-                "disp_z": {"output": "z", "noise_um": 0.05}},
-}
+SPEC = Path(__file__).parent / "data" / "two_node_network.yaml"  # two measured nodes, one displacement
 PROGRAMME = [Block(0.25), Block(2, 3000), Block(1.5), Block(2, 6000), Block(1.5)]
 
 
@@ -40,7 +32,7 @@ def test_schedule_windows_cut_steps_runs_and_stops():
 @pytest.fixture(scope="module")
 def concealed():
     """Calibrate the true network to a recording with a concealed +1 µm drift during the second stop."""
-    truth = physics.network_from_dict(SPEC)
+    truth = physics.load_network(SPEC)
     rec = synthesize(truth, scenarios.blocks(PROGRAMME, 60.0), 1).recording
     h = rec.time_s / 3600.0
     hidden = h >= 6.0  # the stop after 6000 rpm (5.75–7.25 h) after its step window: nothing changes there

@@ -13,13 +13,7 @@ from thermodrift.core.training import (
     DivergedError, Standardizer, TrainerConfig, cycle_ends, predict, reporting, train, trainer_search_space)
 
 
-@pytest.fixture(autouse=True)
-def _one_thread():
-    """Tiny networks run fastest single-threaded; a thread pool on a busy 2-core runner costs ms per op."""
-    threads = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(threads)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _data(n=240, seed=0):

@@ -3,7 +3,6 @@
 The standard industrial thermal-error model and the baseline shown beside every other model.
 """
 
-import numpy as np
 from sklearn.linear_model import Ridge
 
 from thermodrift.core.components import ThermalModel
