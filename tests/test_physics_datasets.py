@@ -46,6 +46,7 @@ def test_recording_round_trips_and_has_four_conditions(recordings, tmp_path, nam
     assert (span > 10).all() and (span < 200).all(), "drift of tens of µm"
     rec.write(tmp_path / "r.csv", tmp_path / "r.yaml")
     back = load_recording(tmp_path / "r.csv", tmp_path / "r.yaml")
+    assert main(["validate", str(tmp_path / "r.csv"), "--manifest", str(tmp_path / "r.yaml")]) == 0
     assert list(back.data.columns) == list(rec.data.columns)
     assert {c: (ch.role, ch.unit) for c, ch in back.channels.items()} == \
         {c: (ch.role, ch.unit) for c, ch in rec.channels.items()}
