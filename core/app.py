@@ -35,6 +35,8 @@ class Lifecycle(tracking.SweepRun):
 
     def on_multirun_start(self, config, **kwargs) -> None:
         _STATE["composed"] = True
+        if config.optuna.storage:  # create the schema once, before parallel jobs race to create it
+            Job.storage(config.optuna.storage)
         super().on_multirun_start(config, **kwargs)
 
 

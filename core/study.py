@@ -191,6 +191,14 @@ class Job:
                              hint=f"choose from {available}")
         return targets
 
+    @staticmethod
+    def storage(url: str) -> optuna.storages.RDBStorage:
+        """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
+        killed run as failed instead of running forever."""
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
         return registry.create("model", name, **_with_seed(factory, params, self.spec.seed))
@@ -202,12 +210,7 @@ class Job:
         if _accepts(factory, "n_trials"):
             params.setdefault("n_trials", spec.n_trials)
         sampler = registry.create("optimizer", spec.optimizer, seed=spec.seed, **params)
-        storage = None
-        if spec.storage:
-            # Heartbeats let a later run mark the trials of a killed run as failed instead of running forever.
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-                storage = optuna.storages.RDBStorage(spec.storage, heartbeat_interval=30, grace_period=90)
+        storage = self.storage(spec.storage) if spec.storage else None
         return optuna.create_study(study_name=spec.study_name or spec.default_study_name(), storage=storage,
                                    sampler=sampler, direction="minimize", load_if_exists=True)
 
