@@ -38,7 +38,6 @@ the markdown report and writes it to ``--out`` with the command that made it at 
 from __future__ import annotations
 
 import argparse
-import inspect
 import math
 import multiprocessing
 import os
@@ -100,11 +99,7 @@ def make_sampler(name: str, seed: int, n_trials: int):
     """The registered sampler ``name``; ``n_trials`` only goes to factories that take a budget."""
     from thermodrift.core import registry
 
-    factory = registry.get("optimizer", name).factory
-    params: dict[str, Any] = {"seed": seed}
-    if "n_trials" in inspect.signature(factory).parameters:
-        params["n_trials"] = n_trials
-    return registry.create("optimizer", name, **params)
+    return registry.create_sampler(name, seed=seed, n_trials=n_trials)
 
 
 def bbob_run(sampler: str, fid: int, dim: int, seed: int, budget: int) -> dict[str, Any]:

@@ -89,7 +89,7 @@ class Registry:
     def create(self, kind: str, name: str, **params: Any) -> Any:
         """Build component ``name`` of ``kind`` with ``params`` (for optimizers pass ``seed``)."""
         factory = self.get(kind, name).factory
-        if kind == "optimizer" and "seed" in params and not _accepts(factory, "seed"):
+        if kind == "optimizer" and "seed" in params and not accepts(factory, "seed"):
             raise PluginError(f"optimizer {name!r} factory does not accept a seed")
         return factory(**params)
 
@@ -99,7 +99,8 @@ class Registry:
         return self.components[kind]
 
 
-def _accepts(factory: Callable[..., Any], param: str) -> bool:
+def accepts(factory: Callable[..., Any], param: str) -> bool:
+    """Whether ``factory`` takes keyword ``param`` (by name or through ``**kwargs``)."""
     try:
         sig = inspect.signature(factory)
     except (TypeError, ValueError):
@@ -172,6 +173,14 @@ def names(kind: str) -> list[str]:
 def create(kind: str, name: str, **params: Any) -> Any:
     """Build a registered component; ``create("optimizer", name, seed=0)`` returns an Optuna sampler."""
     return default().create(kind, name, **params)
+
+
+def create_sampler(name: str, *, seed: int | None, n_trials: int, **params: Any) -> Any:
+    """The registered optimizer ``name`` as an Optuna sampler; factories whose schedules need the budget
+    (they take ``n_trials``) get the study's ``n_trials`` unless ``params`` set it."""
+    if accepts(get("optimizer", name).factory, "n_trials"):
+        params.setdefault("n_trials", n_trials)
+    return create("optimizer", name, seed=seed, **params)
 
 
 def get(kind: str, name: str) -> Component:

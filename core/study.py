@@ -9,7 +9,6 @@ completed trials (only the missing number of trials is run).
 from __future__ import annotations
 
 import hashlib
-import inspect
 import json
 import warnings
 from dataclasses import dataclass, field
@@ -153,7 +152,7 @@ class Job:
 
         optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
         torch.set_num_threads(spec.threads)
-        study = self._study(space)
+        study = self._study()
         done = sum(t.state in FINISHED for t in study.trials)
         budget = 1 if not space else spec.n_trials
         if done < budget:
@@ -203,13 +202,10 @@ class Job:
         factory = registry.get("model", name).factory
         return registry.create("model", name, **_with_seed(factory, params, self.spec.seed))
 
-    def _study(self, space: dict) -> optuna.Study:
+    def _study(self) -> optuna.Study:
         spec = self.spec
-        factory = registry.get("optimizer", spec.optimizer).factory
-        params = dict(spec.optimizer_params)
-        if _accepts(factory, "n_trials"):
-            params.setdefault("n_trials", spec.n_trials)
-        sampler = registry.create("optimizer", spec.optimizer, seed=spec.seed, **params)
+        sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
+                                          **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
         return optuna.create_study(study_name=spec.study_name or spec.default_study_name(), storage=storage,
                                    sampler=sampler, direction="minimize", load_if_exists=True)
@@ -233,18 +229,11 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
     return out
 
 
-def _accepts(factory: Callable, param: str) -> bool:
-    try:
-        return param in inspect.signature(factory).parameters
-    except (TypeError, ValueError):
-        return False
-
-
 def _with_seed(factory: Callable, params: dict, seed: int) -> dict:
     """``params`` plus the run's seed under the name the component uses for it, if it takes one."""
     out = dict(params)
     for key in ("random_state", "seed"):
-        if _accepts(factory, key):
+        if registry.accepts(factory, key):
             out.setdefault(key, seed)
             break
     return out

@@ -87,3 +87,10 @@ def test_a_model_without_search_space_runs_one_trial(reg, rec):
     result = Job(spec(model="persistence", n_trials=10)).run(rec)
     assert len(result.study.trials) == 1
     np.testing.assert_allclose(result.summary_metrics("model")["rmse"], result.summary_metrics("persistence")["rmse"])
+
+
+@pytest.mark.parametrize("optimizer", ["pso", "pso_constriction", "rbmox"])
+def test_the_study_budget_reaches_samplers_with_schedules(reg, rec, optimizer):
+    result = Job(spec(optimizer=optimizer, n_trials=7)).run(rec)
+    assert result.study.sampler.n_trials == 7
+    assert registry.create_sampler(optimizer, seed=0, n_trials=9).n_trials == 9

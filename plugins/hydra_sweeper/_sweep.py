@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 import logging
 import math
 from collections.abc import Sequence
@@ -76,11 +75,7 @@ def create_sampler(name: str, params: dict[str, Any], seed: int, n_trials: int) 
     """The registered optimizer ``name``; samplers whose schedules need the budget also get ``n_trials``."""
     from thermodrift.core import registry
 
-    kwargs = dict(params)
-    signature = inspect.signature(registry.get("optimizer", name).factory).parameters.values()
-    if any(p.name == "n_trials" or p.kind is p.VAR_KEYWORD for p in signature):
-        kwargs.setdefault("n_trials", n_trials)
-    return registry.create("optimizer", name, seed=seed, **kwargs)
+    return registry.create_sampler(name, seed=seed, n_trials=n_trials, **params)
 
 
 def objective_values(returned: Any, n_objectives: int) -> list[float]:
