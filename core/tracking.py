@@ -129,17 +129,16 @@ def comparison(result) -> pd.DataFrame:
 
 
 def figures(result) -> dict[str, Any]:
-    """Prediction vs measurement, residuals and convergence figures (matplotlib, Agg backend)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """Prediction vs measurement, residuals and convergence figures. Plain matplotlib Figures, outside pyplot's
+    registry, so a grid running many jobs in one process does not pile up open figures."""
+    from matplotlib.figure import Figure
 
     out = {}
     fold = result.folds[-1]
     hours = fold.time_s / 3600.0
     k = fold.y_true.shape[1]
-    fig, axes = plt.subplots(k, 1, figsize=(9, 2.6 * k), squeeze=False, sharex=True)
+    fig = Figure(figsize=(9, 2.6 * k))
+    axes = fig.subplots(k, 1, squeeze=False, sharex=True)
     for i, col in enumerate(fold.y_true.columns):
         ax = axes[i, 0]
         ax.plot(hours, fold.y_true[col].to_numpy(), color="black", lw=1.2, label="measured")
@@ -150,7 +149,8 @@ def figures(result) -> dict[str, Any]:
         ax.legend(fontsize=7, loc="best")
     axes[-1, 0].set_xlabel(f"time [h] — {fold.name}")
     out["prediction_vs_measurement.png"] = fig
-    fig, axes = plt.subplots(k, 1, figsize=(9, 2.4 * k), squeeze=False, sharex=True)
+    fig = Figure(figsize=(9, 2.4 * k))
+    axes = fig.subplots(k, 1, squeeze=False, sharex=True)
     for i, col in enumerate(fold.y_true.columns):
         for who, pred in fold.predictions.items():
             axes[i, 0].plot(hours, fold.y_true[col].to_numpy() - pred[:, i], lw=1,
@@ -162,7 +162,8 @@ def figures(result) -> dict[str, Any]:
     out["residuals.png"] = fig
     values = [t.value for t in result.study.trials if t.value is not None]
     if values:
-        fig, ax = plt.subplots(figsize=(6, 3.5))
+        fig = Figure(figsize=(6, 3.5))
+        ax = fig.subplots()
         ax.plot(values, "o", ms=3, alpha=0.6, label="trial")
         ax.plot(np.minimum.accumulate(values), lw=1.5, label="best so far")
         ax.set_xlabel("completed trial")
