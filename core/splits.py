@@ -10,6 +10,7 @@ a study tunes on, taken inside a training part the same honest way.
 
 from __future__ import annotations
 
+import inspect
 import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -166,10 +167,12 @@ SPLITS = {"chronological": Chronological, "condition_holdout": ConditionHoldout,
           "forward_chaining": ForwardChaining, "shuffled": Shuffled}
 
 
-def make_split(kind: str, **params) -> Split:
-    """Build a split by its config name."""
+def make_split(kind: str, seed: int | None = None, **params) -> Split:
+    """Build a split by its config name; ``seed`` reaches the splits that draw at random (unless ``params`` set it)."""
     if kind not in SPLITS:
         raise InputError(f"unknown split {kind!r}; use one of {', '.join(SPLITS)}")
+    if seed is not None and "seed" in inspect.signature(SPLITS[kind]).parameters:
+        params.setdefault("seed", seed)
     return SPLITS[kind](**params)
 
 

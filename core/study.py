@@ -103,7 +103,7 @@ class Job:
         if recording is None:
             recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
         targets = self._targets(recording)
-        split = splits.make_split(spec.split, **_with_seed(splits.SPLITS[spec.split], spec.split_params, spec.seed))
+        split = splits.make_split(spec.split, seed=spec.seed, **spec.split_params)
         folds = split.folds(recording)
         features = [c for role in spec.input_roles for c in recording.columns(role)]
         if not features:

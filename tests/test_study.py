@@ -94,3 +94,10 @@ def test_the_study_budget_reaches_samplers_with_schedules(reg, rec, optimizer):
     result = Job(spec(optimizer=optimizer, n_trials=7)).run(rec)
     assert result.study.sampler.n_trials == 7
     assert registry.create_sampler(optimizer, seed=0, n_trials=9).n_trials == 9
+
+
+def test_unknown_split_is_bad_input(reg, rec):
+    from thermodrift.core.errors import InputError
+
+    with pytest.raises(InputError, match="unknown split"):
+        Job(spec(split="random_rows")).run(rec)
