@@ -120,6 +120,73 @@ def test_a_trial_left_running_by_a_killed_worker_does_not_block(name):
         assert len(same_cell) == 2
 
 
+@pytest.mark.parametrize("name", list(SAMPLERS))
+def test_incremental_reading_equals_reading_storage_afresh(name):
+    """Several trials out at once, told out of order, some failed or pruned: the sampler that folds finished trials
+    in as they come proposes exactly what a new sampler object reading the whole storage at every ask proposes."""
+    def drive(fresh_each_ask: bool) -> list[dict]:
+        storage = optuna.storages.InMemoryStorage()
+        make = lambda: SAMPLERS[name](population_size=4, n_trials=60, seed=7)  # noqa: E731
+        study = optuna.create_study(storage=storage, study_name="s", sampler=make())
+        order = np.random.default_rng(0)
+        out: list[optuna.Trial] = []
+        for step in range(60):
+            if fresh_each_ask:
+                study = optuna.load_study(study_name="s", storage=storage, sampler=make())
+            trial = study.ask()
+            sphere(trial)
+            out.append(trial)
+            while len(out) > 3 or (step == 59 and out):  # up to three running, finished in random order
+                done = out.pop(int(order.integers(len(out))))
+                kind = order.integers(10)
+                if kind == 0:
+                    study.tell(done, state=TrialState.FAIL)
+                elif kind == 1:
+                    study.tell(done, state=TrialState.PRUNED)
+                else:
+                    study.tell(done, sum((done.params[f"x{i}"] - c) ** 2 for i, c in enumerate(CENTRE)))
+        return [t.params for t in study.trials]
+
+    assert drive(fresh_each_ask=False) == drive(fresh_each_ask=True)
+
+
+@pytest.mark.parametrize("name", list(SAMPLERS))
+def test_the_first_trial_joins_the_population(name):
+    """Trial 0 is drawn before Optuna knows a search space; it is adopted as slot 0 of generation 0, so an
+    enqueued first trial at the optimum is the population's best from the start."""
+    sampler = SAMPLERS[name](population_size=4, n_trials=40, seed=0)
+    study = optuna.create_study(sampler=sampler)
+    study.enqueue_trial({f"x{i}": float(c) for i, c in enumerate(CENTRE)})
+    study.optimize(sphere, n_trials=16)
+    members = sampler.members(study)
+    assert [m.number for m in members] == list(range(16))
+    assert (members[0].slot, members[0].gen, members[0].phase, members[0].fitness) == (0, 0, "init", 0.0)
+    assert np.allclose(members[0].x, (CENTRE + 1) / 2)  # the unit-cube position of its parameters
+    assert [m.slot for m in members[1:4]] == [1, 2, 3]
+    if sampler.generational:
+        assert np.allclose(sampler.population(study, 1).best_x, members[0].x)  # X_food, the brightest
+    else:  # slot 0 moves on from trial 0's position, pulled toward it as personal and global best
+        assert members[4].slot == 0 and members[4].gen == 1
+
+
+def test_a_running_first_trial_holds_its_slot():
+    sampler = FASampler(population_size=3, seed=0)
+    study = optuna.create_study(sampler=sampler)
+    t0, t1 = study.ask(), study.ask()
+    v0 = sphere(t0)
+    sphere(t1)  # both drawn before any result: neither carries a position
+    study.tell(t0, v0)
+    assert "fa:slot" not in study._storage.get_trial_system_attrs(t1._trial_id)
+    t2 = study.ask()
+    sphere(t2)
+    assert t2.number == 2 and study._storage.get_trial_system_attrs(t2._trial_id)["fa:slot"] == 2
+    study.tell(t1, 0.5)
+    study.tell(t2, sphere(t2))
+    t3 = study.ask()
+    sphere(t3)
+    assert sampler.members(study)[3].gen == 1  # generation 0 (trials 0, 1, 2 in slots 0, 1, 2) closed
+
+
 def test_threads_take_distinct_slots():
     study = optuna.create_study(sampler=PSOSampler(population_size=4, seed=0))
     study.optimize(sphere, n_trials=24, n_jobs=2)
@@ -145,8 +212,7 @@ def test_ask_and_tell_with_failed_and_pruned_trials():
     last = max(m["gen"] for m in members)
     assert last >= 5
     # Failed and pruned trials count as worst: X_food is the best completed trial under "maximize".
-    dim = len(CENTRE)
-    food = sampler._population(sampler._members(study, members[0]["space"], dim), last, dim).best_x
+    food = sampler.population(study, last).best_x
     closed = [t for t in study.trials if t.state == TrialState.COMPLETE and t.system_attrs.get("rbmo:gen", -1) < last]
     best = max(closed, key=lambda t: t.value)
     assert np.allclose(food, best.system_attrs["rbmo:x"])
@@ -170,7 +236,8 @@ def test_a_changed_search_space_starts_a_new_population():
     spaces = [m["space"] for m in members]
     assert len(set(spaces)) == 2 and spaces[0] != spaces[-1]
     second = [m for m in members if m["space"] == spaces[-1]]
-    assert [m["phase"] for m in second[:3]] == ["init"] * 3 and second[3]["gen"] == 1
+    # Trial 0 (drawn before any space existed, and holding "x") is adopted as slot 0 of the new population too.
+    assert [(m["phase"], m["slot"]) for m in second[:2]] == [("init", 1), ("init", 2)] and second[2]["gen"] == 1
     assert all(len(m["x"]) == 1 for m in second)
 
 
@@ -184,18 +251,18 @@ def test_rbmo_alternates_search_and_attack_and_stores_food_greedily():
     assert by_gen[0] == {"init"}
     assert all(by_gen[g] == {"search" if g % 2 else "attack"} for g in range(1, max(by_gen) + 1))
     assert max(by_gen) >= 9
-    dim = len(CENTRE)
-    parsed = sampler._members(study, members[0]["space"], dim)
-    fitness = np.array([sampler._population(parsed, g, dim).fitness for g in range(1, 11)])
+    fitness = np.array([sampler.population(study, g).fitness for g in range(1, 11)])
     assert np.all(np.diff(fitness, axis=0) <= 0)  # Eq. 7: no magpie ever gets worse
 
 
 def test_fa_evaluates_n_fireflies_per_generation():
-    study = run(FASampler(population_size=5, seed=2), n_trials=41)
-    members = attrs(study, "fa")
-    per_gen = Counter(m["gen"] for m in members)
-    assert [per_gen[g] for g in range(8)] == [5] * 8
-    assert all(sorted(m["slot"] for m in members if m["gen"] == g) == list(range(5)) for g in range(8))
+    sampler = FASampler(population_size=5, seed=2)
+    study = run(sampler, n_trials=41)
+    members = sampler.members(study)  # trial 0 included: it is adopted as slot 0 of generation 0
+    assert [m.number for m in members] == list(range(41)) and (members[0].slot, members[0].gen) == (0, 0)
+    per_gen = Counter(m.gen for m in members)
+    assert [per_gen[g] for g in range(9)] == [5] * 8 + [1]
+    assert all(sorted(m.slot for m in members if m.gen == g) == list(range(5)) for g in range(8))
 
 
 def test_pso_clamps_velocity_and_stays_in_the_box():
@@ -224,13 +291,12 @@ def test_rbmox_restarts_with_opposition_points_and_ends_with_local_search():
     assert phases["restart"] >= 2 and phases["local"] >= 10
     assert all(m["phase"] == "local" for m in members[-10:])
     dim = len(CENTRE)
-    parsed = sampler._members(study, members[0]["space"], dim)
     for m in members:
         if m["phase"] == "restart":  # the opposition point of the slot's position before that generation
-            before = sampler._population(parsed, m["gen"], dim).x[m["slot"]]
+            before = sampler.population(study, m["gen"]).x[m["slot"]]
             assert np.allclose(m["x"], 1 - before)
         elif m["phase"] in ("search", "attack"):  # step-norm clipping
-            before = sampler._population(parsed, m["gen"], dim).x[m["slot"]]
+            before = sampler.population(study, m["gen"]).x[m["slot"]]
             assert np.linalg.norm(np.asarray(m["x"]) - before) <= 0.1 * math.sqrt(dim) + 1e-9
 
 

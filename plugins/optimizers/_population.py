@@ -13,12 +13,19 @@ take the same slot:
    left out, parameters sorted by name) into the unit cube [0, 1]^D with Optuna's transform: one column per float
    or int (log scale where ``log=True``; int and stepped float widened by half a step so rounding is fair),
    categorical one-hot, decoded by argmax. Step sizes, velocity limits and attraction ranges are therefore
-   scale-free. Before the first trial finishes the space is empty, so trial 0 is random (as with Optuna's CMA-ES);
-   a parameter whose range changes leaves the intersection and is then sampled independently.
-2. Read every trial carrying ``<prefix>:space`` equal to this space's signature (trials of another space are
-   ignored: a changed space starts a new population). Fitness is the value, negated when maximising; FAIL and
-   PRUNED count as +inf (worst); RUNNING and WAITING are pending. Finished trials are parsed once and the
-   generational replay (step 3) is kept until a closed generation changes, so an ask costs a few ms at 1000 trials.
+   scale-free. A parameter whose range changes leaves the intersection and is then sampled independently.
+2. Read this space's members from storage: the trials carrying ``<prefix>:space`` equal to the space's signature
+   (trials of another space are ignored: a changed space starts a new population). Fitness is the value, negated
+   when maximising; FAIL and PRUNED count as +inf (worst); RUNNING and WAITING are pending.
+   The first trial of a study is drawn before any search space exists (Optuna knows none until a trial has
+   finished), so it cannot carry a position; such *adopted* trials -- numbers below N, not proposed by this
+   sampler (the first trial, enqueued trials), finished with every parameter of the space -- join the
+   population as slot = trial number, generation 0, phase ``init``, at the position of their parameters. While
+   such a trial runs, it holds its slot.
+   A finished trial never changes, so it is read once and folded into running aggregates (per-slot latest and
+   best, the finished members ranked by fitness, members per generation, and the replayed population after each
+   closed generation); an ask re-reads only the trials that were unfinished or new since the last one, so its
+   cost hardly grows with the size of the study.
 3. Give the new trial a slot 0..N-1 and a generation.
    *Asynchronous* algorithms (PSO, GWO): the free slot (its latest trial finished, or none yet) with the fewest
    trials, ties to the lowest index; ``gen`` counts that slot's moves. With more workers than slots, the least
@@ -46,12 +53,13 @@ same slot, which costs one duplicate proposal.
 from __future__ import annotations
 
 import abc
+import bisect
 import hashlib
-import heapq
 import json
 import threading
 import zlib
-from dataclasses import dataclass
+from collections import defaultdict
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Sequence
 
 import numpy as np
@@ -96,17 +104,15 @@ class Population:
 class Context:
     """What :meth:`PopulationSampler._propose` sees for one new trial."""
 
-    members: list[Member]  # this space's trials, by trial number
     slot: int
     gen: int
     dim: int
     rng: np.random.Generator
     progress: float  # share of the budget n_trials used before this trial (generational: before its generation)
     population: Population | None  # generational algorithms, gen >= 1
-
-    def own(self) -> list[Member]:
-        """This slot's earlier trials, oldest first."""
-        return [m for m in self.members if m.slot == self.slot]
+    latest: Member | None  # this slot's latest trial (asynchronous algorithms)
+    own_best: Member | None  # this slot's best finished trial with finite fitness
+    ranked: Sequence[Member]  # every finished member with finite fitness, best first (ties: earlier trial first)
 
 
 @dataclass(frozen=True)
@@ -118,10 +124,49 @@ class Move:
     v: np.ndarray | None = None
 
 
-def best(members: Sequence[Member], k: int = 1) -> list[Member]:
-    """The ``k`` best finished members with finite fitness, best first (ties to the earlier trial)."""
-    done = (m for m in members if m.fitness is not None and m.fitness < np.inf)
-    return heapq.nsmallest(k, done, key=lambda m: (m.fitness, m.number))
+def _rank_key(m: Member) -> tuple[float, int]:
+    return m.fitness, m.number
+
+
+@dataclass(frozen=True)
+class _Replayed:
+    """The replay state before some generation: per-slot position and fitness, best member, best history."""
+
+    x: tuple[np.ndarray | None, ...]
+    fitness: tuple[float, ...]
+    best: Member | None
+    history: tuple[float, ...]
+
+
+@dataclass
+class _Ledger:
+    """What one sampler has read of one population (study, search space, direction), folded in incrementally."""
+
+    storage: Any
+    seen: int = 0  # trials[:seen] have been read
+    open: list[int] = field(default_factory=list)  # numbers below ``seen`` that were unfinished when last read
+    count: int = 0  # finished members folded in
+    slot_count: defaultdict = field(default_factory=lambda: defaultdict(int))
+    slot_latest: dict[int, Member] = field(default_factory=dict)  # finished, highest number per slot
+    slot_best: dict[int, Member] = field(default_factory=dict)  # finished with finite fitness, best per slot
+    ranked: list[Member] = field(default_factory=list)  # finished with finite fitness, by (fitness, number)
+    by_gen: defaultdict = field(default_factory=lambda: defaultdict(list))  # generation -> finished members
+    max_gen: int = -1
+    replays: list[_Replayed] = field(default_factory=list)  # [g]: state before generation g, finished members only
+
+    def fold(self, m: Member) -> None:
+        """Add a finished member to every aggregate."""
+        self.count += 1
+        self.slot_count[m.slot] += 1
+        if m.slot not in self.slot_latest or m.number > self.slot_latest[m.slot].number:
+            self.slot_latest[m.slot] = m
+        if m.fitness < np.inf:
+            if m.slot not in self.slot_best or _rank_key(m) < _rank_key(self.slot_best[m.slot]):
+                self.slot_best[m.slot] = m
+            bisect.insort(self.ranked, m, key=_rank_key)
+        self.by_gen[m.gen].append(m)
+        self.max_gen = max(self.max_gen, m.gen)
+        del self.replays[m.gen + 1:]  # replays after generation m.gen change
 
 
 class PopulationSampler(BaseSampler, abc.ABC):
@@ -146,8 +191,7 @@ class PopulationSampler(BaseSampler, abc.ABC):
         self._seed = int(np.random.SeedSequence().generate_state(1)[0]) if seed is None else int(seed)
         self._search_space = IntersectionSearchSpace()
         self._lock = threading.Lock()
-        self._finished: dict[int, tuple] = {}  # trial id -> (trial object, (signature, sign), parsed member or None)
-        self._replay: tuple | None = None  # (closed generations' key, Population) of the last replay
+        self._ledgers: dict[tuple, _Ledger] = {}  # (study id, space signature, sign) -> what was read of it
 
     # --- Optuna API -----------------------------------------------------------------------------------------
 
@@ -163,13 +207,13 @@ class PopulationSampler(BaseSampler, abc.ABC):
             return {}
         space = dict(sorted(search_space.items()))
         transform = _SearchSpaceTransform(space, transform_0_1=True)
-        signature = _signature(space)
         with self._lock:
-            members = self._members(study, signature, transform.bounds.shape[0])
-            ctx = self._context(members, trial.number, transform.bounds.shape[0], signature)
+            ledger, pending = self._read(study, space, transform, trial.number)
+            ctx = self._context(ledger, pending, trial.number, transform.bounds.shape[0])
             move = self._propose(ctx)
             x = np.clip(np.asarray(move.x, dtype=float), 0.0, 1.0)
-            attrs: dict[str, Any] = {"space": signature, "slot": ctx.slot, "gen": ctx.gen, "phase": move.phase}
+            attrs: dict[str, Any] = {"space": _signature(space), "slot": ctx.slot, "gen": ctx.gen,
+                                     "phase": move.phase}
             if move.v is not None:
                 attrs["v"] = np.asarray(move.v, dtype=float).tolist()
             attrs["x"] = x.tolist()  # last: another process that sees x sees the whole record
@@ -192,12 +236,29 @@ class PopulationSampler(BaseSampler, abc.ABC):
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         del state["_lock"]
-        state["_finished"], state["_replay"] = {}, None
+        state["_ledgers"] = {}
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._lock = threading.Lock()
+
+    # --- inspection ---------------------------------------------------------------------------------------------
+
+    def members(self, study: optuna.Study) -> list[Member]:
+        """The members of the study's current relative search space, by trial number."""
+        space, transform = self._current_space(study)
+        with self._lock:
+            return self._all_members(*self._read(study, space, transform, None))
+
+    def population(self, study: optuna.Study, gen: int) -> Population:
+        """The population that generation ``gen`` (>= 1) of a generational algorithm moves, replayed in full."""
+        space, transform = self._current_space(study)
+        return self._replay(self.members(study), gen, transform.bounds.shape[0])
+
+    def _current_space(self, study: optuna.Study) -> tuple[dict[str, BaseDistribution], _SearchSpaceTransform]:
+        space = dict(sorted(self.infer_relative_search_space(study, None).items()))
+        return space, _SearchSpaceTransform(space, transform_0_1=True)
 
     # --- what subclasses implement ----------------------------------------------------------------------------
 
@@ -209,57 +270,82 @@ class PopulationSampler(BaseSampler, abc.ABC):
         """Generational only: whether ``new`` (finished, best of its slot in a closed generation) takes the slot."""
         return True
 
-    # --- state rebuilt from storage ---------------------------------------------------------------------------
+    # --- state read from storage ------------------------------------------------------------------------------
 
-    def _members(self, study: optuna.Study, signature: str, dim: int) -> list[Member]:
+    def _read(self, study: optuna.Study, space: dict[str, BaseDistribution], transform: _SearchSpaceTransform,
+              asking: int | None) -> tuple[_Ledger, list[Member]]:
+        """Fold the trials that finished since the last read into this population's ledger; return it with the
+        pending members (trial ``asking``, the one being sampled, left out)."""
+        signature = _signature(space)
+        sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
+        key = (study._study_id, signature, sign)
+        ledger = self._ledgers.get(key)
+        if ledger is None or ledger.storage is not study._storage:
+            ledger = self._ledgers[key] = _Ledger(study._storage)
         # Read past the per-thread trial cache so another thread's slot assignment is never missed.
         trials = study._get_trials(deepcopy=False, use_cache=False)
-        sign = -1.0 if study.direction == StudyDirection.MAXIMIZE else 1.0
-        key = f"{self.prefix}:"
-        members = []
-        for t in trials:
-            # A finished trial never changes: its parsed form is kept while storage hands out the same object.
-            cached = self._finished.get(t._trial_id)
-            if cached is not None and cached[0] is t and cached[1] == (signature, sign):
-                if cached[2] is not None:
-                    members.append(cached[2])
+        still_open, pending = [], []
+        for number in ledger.open + list(range(ledger.seen, len(trials))):
+            t = trials[number]
+            if t.number == asking:
+                still_open.append(number)
                 continue
-            attrs = t.system_attrs
-            member = None
-            if attrs.get(key + "space") == signature and len(attrs.get(key + "x", ())) == dim:
-                if t.state == TrialState.COMPLETE:
-                    fitness = sign * float(t.value) if t.value is not None else np.inf
-                elif t.state in (TrialState.FAIL, TrialState.PRUNED):
-                    fitness = np.inf
-                else:
-                    fitness = None
-                v = attrs.get(key + "v")
-                member = Member(t.number, int(attrs[key + "slot"]), int(attrs[key + "gen"]), attrs[key + "phase"],
-                                np.asarray(attrs[key + "x"], dtype=float),
-                                None if v is None else np.asarray(v, dtype=float), fitness)
-                members.append(member)
+            member = self._parse(t, space, signature, sign, transform)
             if t.state.is_finished():
-                self._finished[t._trial_id] = (t, (signature, sign), member)
-        members.sort(key=lambda m: m.number)
-        return members
+                if member is not None:
+                    ledger.fold(member)
+            else:
+                still_open.append(number)
+                if member is not None:
+                    pending.append(member)
+        ledger.open, ledger.seen = still_open, len(trials)
+        return ledger, pending
 
-    def _context(self, members: list[Member], number: int, dim: int, signature: str = "") -> Context:
+    def _parse(self, t: FrozenTrial, space: dict[str, BaseDistribution], signature: str, sign: float,
+               transform: _SearchSpaceTransform) -> Member | None:
+        """Trial ``t`` as a member of this space's population, or None."""
+        if t.state == TrialState.COMPLETE:
+            fitness = sign * float(t.value) if t.value is not None else np.inf
+        elif t.state in (TrialState.FAIL, TrialState.PRUNED):
+            fitness = np.inf
+        else:
+            fitness = None
+        attrs, key = t.system_attrs, f"{self.prefix}:"
+        if key + "space" in attrs:
+            if attrs[key + "space"] != signature or len(attrs.get(key + "x", ())) != transform.bounds.shape[0]:
+                return None
+            v = attrs.get(key + "v")
+            return Member(t.number, int(attrs[key + "slot"]), int(attrs[key + "gen"]), attrs[key + "phase"],
+                          np.asarray(attrs[key + "x"], dtype=float),
+                          None if v is None else np.asarray(v, dtype=float), fitness)
+        if t.number >= self.population_size or any(t.distributions.get(n) != d for n, d in space.items()):
+            return None
+        # Adopted (a trial this sampler did not propose, with every parameter of the space); while it runs it is
+        # pending and holds its slot.
+        x = np.clip(transform.transform({name: t.params[name] for name in space}), 0.0, 1.0)
+        return Member(t.number, t.number, 0, "init", x, None, fitness)
+
+    def _context(self, ledger: _Ledger, pending: list[Member], number: int, dim: int) -> Context:
         rng = np.random.default_rng([self._seed, number, 0])
         n = self.population_size
+        ranked = ledger.ranked
         if not self.generational:
-            latest: dict[int, Member] = {}
-            counts = [0] * n
-            for m in members:
+            counts = [ledger.slot_count[s] for s in range(n)]
+            latest = {s: m for s, m in ledger.slot_latest.items() if s < n}
+            for m in pending:
                 if m.slot < n:
-                    latest[m.slot] = m
                     counts[m.slot] += 1
+                    if m.slot not in latest or m.number > latest[m.slot].number:
+                        latest[m.slot] = m
             free = [s for s in range(n) if s not in latest or latest[s].finished]
             slot = min(free or range(n), key=lambda s: (counts[s], s))
-            progress = min(1.0, len(members) / self.n_trials)
-            return Context(members, slot, counts[slot], dim, rng, progress, None)
+            progress = min(1.0, (ledger.count + len(pending)) / self.n_trials)
+            return Context(slot, counts[slot], dim, rng, progress, None, latest.get(slot), ledger.slot_best.get(slot),
+                           ranked)
 
-        gen = max((m.gen for m in members), default=0)
-        current = [m for m in members if m.gen == gen]
+        gen = max([ledger.max_gen, *(m.gen for m in pending)], default=-1)
+        gen = max(gen, 0)
+        current = ledger.by_gen.get(gen, []) + [m for m in pending if m.gen == gen]
         if sum(m.finished for m in current) >= n:
             gen, current = gen + 1, []
         taken = {m.slot for m in current}
@@ -271,46 +357,74 @@ class PopulationSampler(BaseSampler, abc.ABC):
             slot = min(waiting, key=lambda s: (sum(m.slot == s for m in current), s))
         population = None
         if gen > 0:
-            # The replay only changes when a trial of a closed generation is added or finishes.
-            key = (signature, gen, tuple((m.number, m.fitness, m.x[0]) for m in members if m.gen < gen))
-            if self._replay is None or self._replay[0] != key:
-                self._replay = (key, self._population(members, gen, dim))
-            population = self._replay[1]
+            if any(m.gen < gen for m in pending):  # a straggler of a closed generation: replay everything
+                population = self._replay(self._all_members(ledger, pending), gen, dim)
+            else:
+                population = self._population_of(ledger, gen, dim)
         progress = min(1.0, gen * n / self.n_trials)
-        return Context(members, slot, gen, dim, rng, progress, population)
+        return Context(slot, gen, dim, rng, progress, population, None, ledger.slot_best.get(slot), ranked)
 
-    def _population(self, members: list[Member], gen: int, dim: int) -> Population:
-        """Replay generations 0..gen-1 into the population that generation ``gen`` moves."""
+    # --- the generational replay --------------------------------------------------------------------------------
+
+    def _population_of(self, ledger: _Ledger, gen: int, dim: int) -> Population:
+        """The population generation ``gen`` moves, continued from the ledger's replays of finished members."""
+        if not ledger.replays:
+            ledger.replays.append(_Replayed((None,) * self.population_size, (np.inf,) * self.population_size,
+                                            None, ()))
+        while len(ledger.replays) <= gen:
+            g = len(ledger.replays) - 1
+            cohort = sorted(ledger.by_gen.get(g, []), key=lambda m: m.number)
+            ledger.replays.append(self._step(ledger.replays[g], cohort))
+        return self._as_population(ledger.replays[gen], dim)
+
+    def _replay(self, members: list[Member], gen: int, dim: int) -> Population:
+        """Replay generations 0..gen-1 of ``members`` (any, pending included) into the population of ``gen``."""
         n = self.population_size
-        first: dict[tuple[int, int], Member] = {}  # (generation, slot) -> first proposal
-        done: dict[tuple[int, int], Member] = {}  # (generation, slot) -> best finished trial
-        for m in members:
-            if m.gen < gen and m.slot < n:
-                cell = (m.gen, m.slot)
-                first.setdefault(cell, m)
-                if m.finished and (cell not in done or m.fitness < done[cell].fitness):
-                    done[cell] = m
-        x: list[np.ndarray | None] = [None] * n
-        fitness = [np.inf] * n
-        best_m: Member | None = None
-        history = []
+        state = _Replayed((None,) * n, (np.inf,) * n, None, ())
+        by_gen = defaultdict(list)
+        for m in sorted(members, key=lambda m: m.number):
+            by_gen[m.gen].append(m)
         for g in range(gen):
-            for s in range(n):
-                m = done.get((g, s))
-                if m is not None:
-                    if x[s] is None or self._replaces(m, fitness[s]):
-                        x[s], fitness[s] = m.x, m.fitness
-                    if m.fitness < (np.inf if best_m is None else best_m.fitness):
-                        best_m = m
-                elif x[s] is None and (g, s) in first:
-                    x[s] = first[(g, s)].x  # never evaluated: keep the proposal, fitness stays +inf
-            history.append(np.inf if best_m is None else best_m.fitness)
+            state = self._step(state, by_gen.get(g, []))
+        return self._as_population(state, dim)
+
+    def _step(self, state: _Replayed, cohort: list[Member]) -> _Replayed:
+        """Apply one closed generation (its members by trial number) to the replay state."""
+        n = self.population_size
+        first: dict[int, Member] = {}  # slot -> first proposal
+        done: dict[int, Member] = {}  # slot -> best finished trial
+        for m in cohort:
+            if m.slot < n:
+                first.setdefault(m.slot, m)
+                if m.finished and (m.slot not in done or m.fitness < done[m.slot].fitness):
+                    done[m.slot] = m
+        x, fitness, best_m = list(state.x), list(state.fitness), state.best
+        for s in range(n):
+            m = done.get(s)
+            if m is not None:
+                if x[s] is None or self._replaces(m, fitness[s]):
+                    x[s], fitness[s] = m.x, m.fitness
+                if m.fitness < (np.inf if best_m is None else best_m.fitness):
+                    best_m = m
+            elif x[s] is None and s in first:
+                x[s] = first[s].x  # never evaluated: keep the proposal, fitness stays +inf
+        return _Replayed(tuple(x), tuple(fitness), best_m,
+                         state.history + (np.inf if best_m is None else best_m.fitness,))
+
+    @staticmethod
+    def _as_population(state: _Replayed, dim: int) -> Population:
         # A slot never proposed in generation 0 only occurs in hand-made studies: park it at the centre.
-        xs = np.array([np.full(dim, 0.5) if row is None else row for row in x])
-        fs = np.array(fitness)
-        if best_m is None:
+        xs = np.array([np.full(dim, 0.5) if row is None else row for row in state.x])
+        fs = np.array(state.fitness)
+        history = list(state.history)
+        if state.best is None:
             return Population(xs, fs, xs[int(np.argmin(fs))].copy(), np.inf, history)
-        return Population(xs, fs, best_m.x, best_m.fitness, history)
+        return Population(xs, fs, state.best.x, state.best.fitness, history)
+
+    @staticmethod
+    def _all_members(ledger: _Ledger, pending: list[Member]) -> list[Member]:
+        folded = [m for cohort in ledger.by_gen.values() for m in cohort]
+        return sorted(folded + pending, key=lambda m: m.number)
 
 
 def _signature(space: dict[str, BaseDistribution]) -> str:

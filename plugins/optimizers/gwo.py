@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.plugins.optimizers._population import Context, Move, PopulationSampler, best
+from thermodrift.plugins.optimizers._population import Context, Move, PopulationSampler
 
 
 class GWOSampler(PopulationSampler):
@@ -26,12 +26,11 @@ class GWOSampler(PopulationSampler):
         return [{"population_size": 4, "n_trials": 20}, {"population_size": 6, "n_trials": 50}]
 
     def _propose(self, ctx: Context) -> Move:
-        own = ctx.own()
-        leaders = best(ctx.members, 3)
-        if not own or not leaders:
+        leaders = list(ctx.ranked[:3])
+        if ctx.latest is None or not leaders:
             return Move(ctx.rng.random(ctx.dim), "init")
         leaders += leaders[-1:] * (3 - len(leaders))  # fewer than three finished trials: the best repeat
-        x = own[-1].x
+        x = ctx.latest.x
         a = 2.0 * (1.0 - ctx.progress)
         moved = []
         for leader in leaders:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.plugins.optimizers._population import Context, Move, PopulationSampler, best
+from thermodrift.plugins.optimizers._population import Context, Move, PopulationSampler
 
 
 class PSOSampler(PopulationSampler):
@@ -63,12 +63,12 @@ class PSOSampler(PopulationSampler):
                 {"population_size": 3, "form": "constriction", "boundary": "reflect", "n_trials": 20}]
 
     def _propose(self, ctx: Context) -> Move:
-        own = ctx.own()
-        if not own:
+        latest = ctx.latest
+        if latest is None:
             return Move(ctx.rng.random(ctx.dim), "init", np.zeros(ctx.dim))
-        x, v = own[-1].x, own[-1].v if own[-1].v is not None else np.zeros(ctx.dim)
-        p = (best(own) or own[-1:])[0].x
-        g = (best(ctx.members) or own[-1:])[0].x
+        x, v = latest.x, latest.v if latest.v is not None else np.zeros(ctx.dim)
+        p = (ctx.own_best or latest).x
+        g = (ctx.ranked[0] if ctx.ranked else latest).x
         r1, r2 = ctx.rng.random(ctx.dim), ctx.rng.random(ctx.dim)
         pull = self.c1 * r1 * (p - x) + self.c2 * r2 * (g - x)
         if self.form == "inertia":
