@@ -4,10 +4,12 @@ ask/tell, the algorithms' generation structure, and that each one beats random s
 from __future__ import annotations
 
 import math
+import os
 import pickle
 import subprocess
 import sys
 import textwrap
+import uuid
 from collections import Counter
 
 import numpy as np
@@ -60,22 +62,34 @@ WORKER = textwrap.dedent("""
         trial.set_user_attr("pid", os.getpid())
         x = np.array([trial.suggest_float(f"x{{i}}", -1.0, 1.0) for i in range(len(centre))])
         return float(np.sum((x - centre) ** 2))
-    study = optuna.load_study(study_name="shared", storage=sys.argv[1],
+    study = optuna.load_study(study_name=sys.argv[3], storage=sys.argv[1],
                               sampler=RBMOSampler(population_size=3, n_trials=24, seed=int(sys.argv[2])))
     study.optimize(objective, n_trials=12)
 """)
 
 
-def test_two_processes_share_one_sqlite_study(tmp_path):
+def postgres_url() -> str:
+    """The PostgreSQL server that ``bash .ci/run`` starts (.ci/postgres.sh); required there, optional elsewhere."""
+    url = os.environ.get("THERMODRIFT_TEST_POSTGRES")
+    if url:
+        return url
+    if os.environ.get("THERMODRIFT_REQUIRE_POSTGRES"):
+        pytest.fail("THERMODRIFT_TEST_POSTGRES is not set although .ci/run starts a PostgreSQL server")
+    pytest.skip("no PostgreSQL server: run `bash .ci/run`, or set THERMODRIFT_TEST_POSTGRES to a SQLAlchemy URL")
+
+
+@pytest.mark.parametrize("server", ["sqlite", "postgresql"])
+def test_two_processes_share_one_rdb_study(tmp_path, server):
     # RBMO is generational: its generations only close when both processes' results are read from storage.
-    storage = f"sqlite:///{tmp_path / 'study.db'}"
-    optuna.create_study(study_name="shared", storage=storage)
+    storage = f"sqlite:///{tmp_path / 'study.db'}" if server == "sqlite" else postgres_url()
+    name = f"shared-{uuid.uuid4().hex}"  # one PostgreSQL database serves every test process
+    optuna.create_study(study_name=name, storage=storage)
     code = WORKER.format(centre=CENTRE.tolist())
-    workers = [subprocess.Popen([sys.executable, "-c", code, storage, str(seed)], stderr=subprocess.PIPE, text=True)
-               for seed in (0, 1)]
+    workers = [subprocess.Popen([sys.executable, "-c", code, storage, str(seed), name], stderr=subprocess.PIPE,
+                                text=True) for seed in (0, 1)]
     for worker in workers:
         assert worker.wait(timeout=120) == 0, worker.stderr.read()
-    study = optuna.load_study(study_name="shared", storage=storage)
+    study = optuna.load_study(study_name=name, storage=storage)
     trials = study.get_trials()
     assert len(trials) == 24 and all(t.state == TrialState.COMPLETE for t in trials)
     assert len({t.user_attrs["pid"] for t in trials}) == 2
