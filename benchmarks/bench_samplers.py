@@ -21,7 +21,11 @@ population size N = 10): ours ``pso``, ``gwo``, ``fa``, ``rbmo``, ``rbmox``; bas
   lr_max <= 1 at the default weight decay never diverged on this recording (0 of 96 probes over activation,
   depth, width, batch size and clip_norm 10-100); training diverges where lr_max x
   weight_decay > 2 (the decoupled decay factor 1 - lr wd flips sign and grows) and for ReLU at lr_max ~ 10.
-  A trial whose training raises ``DivergedError`` fails with user attr ``diverged``; they are counted.
+  A trial whose training raises ``DivergedError`` fails with user attr ``diverged``; they are counted. Every
+  sampler runs ``--domain-seeds`` seeds (default 20: about one divergence per run, so fewer seeds cannot tell
+  samplers apart), GP only ``--gp-domain-seeds`` (default 10; it takes a minute per run). RBMO-X and RBMO are
+  compared seed by seed: diverged trials per run (Wilcoxon signed-rank test) and the IQR of the final RMSE
+  (a bootstrap over seeds gives a 95% interval of the IQR difference).
 * **Overhead**: milliseconds per ask (``study.ask`` + the suggestions + ``study.tell``, in-memory storage, D = 5)
   once the study holds 100 and 1000 finished trials. Each study is filled by running the sampler itself,
   since the population samplers and CMA-ES keep their state in the trials' attributes; GP is filled with
@@ -77,6 +81,7 @@ class Config:
     gp_seeds: int
     domain_budget: int
     domain_seeds: int
+    gp_domain_seeds: int
     domain_epochs: int
     overhead_sizes: tuple[int, ...]
     workers: int
@@ -230,6 +235,8 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
                                      (name, fid, dim, seed, budget)))
     for seed in range(config.domain_seeds):
         for name in samplers:
+            if name == "gp" and seed >= config.gp_domain_seeds:
+                continue
             jobs.append((3 if name == "gp" else 1, domain_run,
                          (name, seed, config.domain_budget, config.domain_epochs)))
     for name in samplers:
@@ -292,6 +299,28 @@ def rank_test(medians: dict[str, list[float]]) -> tuple[dict[str, float], str, d
         diff = np.array(medians[name]) - np.array(medians[best])
         raw[name] = 1.0 if not np.any(diff) else float(stats.wilcoxon(medians[name], medians[best]).pvalue)
     return mean_ranks, best, holm(raw), friedman_p
+
+
+def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], label: tuple[str, str] = ("RBMO-X",
+                      "RBMO"), resamples: int = 10_000) -> str:
+    """RBMO-X against RBMO on the domain task, paired by seed: diverged trials per run (Wilcoxon signed-rank) and
+    the IQR of the final RMSE with a bootstrap 95% interval of the IQR difference (seeds resampled in pairs)."""
+    from scipy import stats
+
+    by_seed = {r["seed"]: r for r in old}
+    pairs = [(r, by_seed[r["seed"]]) for r in new if r["seed"] in by_seed]
+    div_new, div_old = (np.array([p[i]["diverged"] for p in pairs]) for i in (0, 1))
+    fin_new, fin_old = (np.array([p[i]["curve"][-1] for p in pairs]) for i in (0, 1))
+    p_div = 1.0 if np.all(div_new == div_old) else float(stats.wilcoxon(div_new, div_old).pvalue)
+    rng = np.random.default_rng(0)
+    picks = rng.integers(len(pairs), size=(resamples, len(pairs)))
+    diffs = [iqr(fin_new[i]) - iqr(fin_old[i]) for i in picks]
+    low, high = np.percentile(diffs, [2.5, 97.5])
+    return (f"{label[0]} vs {label[1]}, {len(pairs)} paired seeds: diverged trials {div_new.sum()} vs "
+            f"{div_old.sum()} (runs with any: {int((div_new > 0).sum())} vs {int((div_old > 0).sum())}; Wilcoxon "
+            f"p = {_fmt(p_div)}); IQR of the final RMSE {_fmt(iqr(fin_new))} vs {_fmt(iqr(fin_old))} µm, "
+            f"difference {_fmt(iqr(fin_new) - iqr(fin_old))} µm (bootstrap 95% interval {_fmt(low)} to "
+            f"{_fmt(high)}); median {_fmt(float(np.median(fin_new)))} vs {_fmt(float(np.median(fin_old)))} µm.\n")
 
 
 def _fmt(x: float) -> str:
@@ -385,8 +414,9 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
     if domain:
         out.append(f"\n## Domain task: tuning `bp` on {_domain_data()[4]}\n")
         out.append(f"Validation RMSE (µm) of the best trial after {config.domain_budget} trials "
-                   f"({config.domain_epochs} epochs each) over {config.domain_seeds} seeds; diverged = trials "
-                   "whose training raised DivergedError (failed trials).\n")
+                   f"({config.domain_epochs} epochs each) over {config.domain_seeds} seeds (GP "
+                   f"{config.gp_domain_seeds}); diverged = trials whose training raised DivergedError (failed "
+                   "trials).\n")
         out.append("| sampler | median RMSE µm | IQR µm | best / worst µm | diverged trials (total) | "
                    "diverged per run (median, max) | s per run |")
         out.append("|---|---|---|---|---|---|---|")
@@ -399,6 +429,8 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
             out.append(f"| {s} | {_fmt(float(np.median(finals)))} | {_fmt(iqr(finals))} | "
                        f"{_fmt(min(finals))} / {_fmt(max(finals))} | {sum(div)} | {np.median(div):g}, {max(div)} | "
                        f"{np.median([r['seconds'] for r in runs]):.1f} |")
+        if "rbmox" in domain and "rbmo" in domain:
+            out.append("\n" + paired_comparison(domain["rbmox"], domain["rbmo"]))
 
     # overhead
     over = {r["sampler"]: r["ms"] for r in results if r["part"] == "overhead"}
@@ -444,7 +476,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--gp-seeds", type=int, help="seeds GP runs per BBOB cell (default 2)")
     parser.add_argument("--domain-budget", type=int, help="trials per domain study (default 50 = N + 2 RBMO "
                         "iterations)")
-    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 10)")
+    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 20)")
+    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 10)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--out", default="docs/sampler_benchmark.md", help="markdown report path")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -455,16 +488,18 @@ def config_from(args: argparse.Namespace) -> Config:
     quick = args.quick
     defaults = {"seeds": 2 if quick else 10, "dims": "2" if quick else "2,5,10", "budget_mult": 1 if quick else 3,
                 "functions": "1,3" if quick else ",".join(map(str, FUNCTIONS)), "gp_budget": 11 if quick else 30,
-                "gp_seeds": 2, "domain_budget": 10 if quick else 50, "domain_seeds": 2 if quick else 10}
+                "gp_seeds": 2, "domain_budget": 10 if quick else 50, "domain_seeds": 2 if quick else 20,
+                "gp_domain_seeds": 2 if quick else 10}
     value = {k: getattr(args, k) if getattr(args, k) is not None else v for k, v in defaults.items()}
     config = Config(seeds=value["seeds"], dims=tuple(int(d) for d in str(value["dims"]).split(",")),
                     budget_mult=value["budget_mult"],
                     functions=tuple(int(f) for f in str(value["functions"]).split(",")),
                     gp_budget=value["gp_budget"], gp_seeds=min(value["gp_seeds"], value["seeds"]),
                     domain_budget=value["domain_budget"], domain_seeds=value["domain_seeds"],
+                    gp_domain_seeds=min(value["gp_domain_seeds"], value["domain_seeds"]),
                     domain_epochs=5 if quick else DOMAIN_EPOCHS,
                     overhead_sizes=(4, 8) if quick else (100, 1000), workers=args.workers)
-    if config.seeds < 2 or config.domain_seeds < 2:
+    if config.seeds < 2 or config.domain_seeds < 2 or config.gp_domain_seeds < 2:
         raise SystemExit("--seeds and --domain-seeds must be >= 2 (medians and IQRs over seeds)")
     if config.gp_budget > min(config.budget(d) for d in config.dims):
         raise SystemExit("--gp-budget must not exceed the smallest BBOB budget (GP is compared at that trial)")

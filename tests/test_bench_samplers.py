@@ -80,3 +80,33 @@ def test_gp_domain_and_overhead_tables(report):
     assert [r[0] for r in overhead[1:]] == SAMPLERS and all(
         float(cpu) > 0 and float(wall) > 0
         for r in overhead[1:] for cpu, wall in (re.fullmatch(r"(\S+) \((\S+)\)", c).groups() for c in r[1:]))
+    assert re.search(r"RBMO-X vs RBMO, 2 paired seeds: diverged trials \d+ vs \d+ .*Wilcoxon p = ", report)
+
+
+def _bench_module(name: str):
+    sys.path.insert(0, str(SCRIPT.parent))
+    try:
+        return __import__(name)
+    finally:
+        sys.path.remove(str(SCRIPT.parent))
+
+
+def test_paired_comparison_counts_divergence_and_brackets_the_iqr_difference():
+    bench = _bench_module("bench_samplers")
+    finals_old = [2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5]  # IQR 1.75
+    old = [{"seed": s, "diverged": 2, "curve": [9.0, v]} for s, v in enumerate(finals_old)]
+    new = [{"seed": s, "diverged": 0 if s % 2 else 1, "curve": [9.0, 3.0 + 0.1 * s]} for s in range(8)]  # IQR 0.35
+    line = bench.paired_comparison(new, old)
+    assert "8 paired seeds: diverged trials 4 vs 16 (runs with any: 4 vs 8;" in line
+    low, high = map(float, re.search(r"bootstrap 95% interval (\S+) to (\S+)\)", line).groups())
+    assert low <= 0.35 - 1.75 <= high and high < 0  # clearly narrower: the whole interval is below zero
+
+
+def test_overhead_script_prints_one_row_per_sampler(capsys):
+    overhead = _bench_module("bench_sampler_overhead")
+    assert overhead.main(["--samplers", "random", "pso", "--at", "4", "8"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1].split() == ["sampler", "4", "trials", "8", "trials"]
+    rows = {line.split()[0]: line.split()[1:] for line in lines[2:]}
+    assert sorted(rows) == ["pso", "random"]
+    assert all(float(cell.strip("()")) > 0 for cells in rows.values() for cell in cells)

@@ -291,7 +291,7 @@ def test_pso_clamps_velocity_and_stays_in_the_box():
 
 
 def test_rbmox_with_every_part_off_is_rbmo():
-    off = dict(step_clip=False, cosine_cf=False, restarts=False, local_search=False)
+    off = dict(step_clip=False, cosine_cf=False, restarts=False, local_search=False, recover=False)
     plain = run(RBMOSampler(population_size=4, n_trials=40, seed=3), n_trials=40)
     ablated = run(RBMOXSampler(population_size=4, n_trials=40, seed=3, **off), n_trials=40)
     assert [t.params for t in ablated.trials] == [t.params for t in plain.trials]
@@ -312,6 +312,38 @@ def test_rbmox_restarts_with_opposition_points_and_ends_with_local_search():
         elif m["phase"] in ("search", "attack"):  # step-norm clipping
             before = sampler.population(study, m["gen"]).x[m["slot"]]
             assert np.linalg.norm(np.asarray(m["x"]) - before) <= 0.1 * math.sqrt(dim) + 1e-9
+
+
+def test_rbmox_scales_its_local_search_to_small_budgets():
+    # 50 trials of N = 10 are five generations: init, search, attack, search, then the local search.
+    sampler = RBMOXSampler(population_size=10, n_trials=50, seed=0)
+    study = run(sampler, n_trials=50)
+    phases = {m.gen: m.phase for m in sampler.members(study) if m.number > 0}
+    assert phases == {0: "init", 1: "search", 2: "attack", 3: "search", 4: "local"}
+
+
+@pytest.mark.parametrize("recover", [True, False])
+def test_rbmox_moves_failed_magpies_from_x_food(recover):
+    def objective(trial):  # a third of the box fails, as a diverging training run does
+        x = np.array([trial.suggest_float(f"x{i}", -1.0, 1.0) for i in range(len(CENTRE))])
+        if x[0] > 1 / 3:
+            raise FloatingPointError("diverged")
+        return float(np.sum((x - CENTRE) ** 2))
+
+    kappa, dim = 0.01, len(CENTRE)  # tiny steps: every move stays next to where it started
+    from_food = []
+    for seed in range(3):
+        sampler = RBMOXSampler(population_size=10, n_trials=60, seed=seed, kappa=kappa, local_search=False,
+                               restarts=False, recover=recover)
+        study = optuna.create_study(sampler=sampler)
+        study.optimize(objective, n_trials=60, catch=(FloatingPointError,))
+        for m in sampler.members(study):
+            if m.phase in ("search", "attack"):
+                pop = sampler.population(study, m.gen)
+                if not np.isfinite(pop.fitness[m.slot]):  # this magpie's position failed
+                    from_food.append(np.linalg.norm(m.x - pop.best_x) <= kappa * math.sqrt(dim) + 1e-9)
+    assert len(from_food) >= 6
+    assert all(from_food) if recover else not any(from_food)
 
 
 @pytest.fixture(scope="module")

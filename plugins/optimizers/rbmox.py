@@ -1,7 +1,7 @@
 """RBMO-X: RBMO with the stabilisers of deep-learning training carried into the metaheuristic loop.
 
 The seed study names an "enhanced RBMO" with SGDR warm restarts and gradient-norm clipping but gives no equations;
-this is our design, every part switchable for ablation (all four off reproduces :class:`RBMOSampler` exactly,
+this is our design, every part switchable for ablation (all five off reproduces :class:`RBMOSampler` exactly,
 same seed, same trials):
 
 * ``step_clip`` -- step-norm clipping, the analogue of gradient clipping: a search or attack move of magpie i is
@@ -12,8 +12,13 @@ same seed, same trials):
 * ``restarts`` -- at a cycle end, or after ``patience`` iterations without a better X_food, the search phase of
   the next iteration re-diversifies the worst ``restart_fraction`` of the magpies with opposition points
   x -> 1 - x, which replace them whatever their fitness (a stagnation restart also restarts the CF cycle);
-* ``local_search`` -- in the last ``local_fraction`` of the budget every magpie samples X_food + sigma n,
-  n ~ N(0,1)^D, sigma shrinking linearly from ``local_sigma`` to a tenth of it, kept greedily.
+* ``local_search`` -- the generations in the last ``local_fraction`` of the budget (at least the last one) sample
+  X_food + sigma n, n ~ N(0,1)^D, sigma shrinking linearly from ``local_sigma`` to a tenth of it over those
+  generations, kept greedily; it starts only after one whole search-attack iteration;
+* ``recover`` -- the sampler-side divergence guard, the analogue of a trainer going back to its last good
+  checkpoint: a magpie whose stored position has no finite fitness (its trial failed, e.g. its training diverged,
+  or was pruned) is put back at X_food before the moves are drawn, so neither it nor the group means and random
+  magpies R1 of the other moves start from a point known to fail.
 
 Restart and cycle decisions are replayed from the stored best-fitness history, so they survive a resume.
 """
@@ -42,6 +47,7 @@ class RBMOXSampler(RBMOSampler):
             share of the population re-diversified.
         local_search, local_fraction, local_sigma: final local search, its share of the budget and its initial
             step in the unit cube.
+        recover: magpies whose position failed or was pruned move from X_food.
     """
 
     prefix = "rbmox"
@@ -50,7 +56,8 @@ class RBMOXSampler(RBMOSampler):
                  step_clip: bool = True, kappa: float = 0.3,
                  cosine_cf: bool = True, cycle_iters: int | None = None, cycle_mult: float = 1.0,
                  restarts: bool = True, patience: int = 3, restart_fraction: float = 0.3,
-                 local_search: bool = True, local_fraction: float = 0.15, local_sigma: float = 0.05) -> None:
+                 local_search: bool = True, local_fraction: float = 0.15, local_sigma: float = 0.05,
+                 recover: bool = True) -> None:
         super().__init__(population_size=population_size, n_trials=n_trials, seed=seed)
         self.step_clip, self.kappa = step_clip, kappa
         self.cosine_cf, self.cycle_mult = cosine_cf, cycle_mult
@@ -58,33 +65,49 @@ class RBMOXSampler(RBMOSampler):
         self.cycle_iters = max(2, round(iterations / 3)) if cycle_iters is None else int(cycle_iters)
         self.restarts, self.patience, self.restart_fraction = restarts, patience, restart_fraction
         self.local_search, self.local_fraction, self.local_sigma = local_search, local_fraction, local_sigma
+        self.recover = recover
+        # Generations 0..G-1 fill the budget; the last round(local_fraction G) of them (at least one) search locally
+        # when generations 1 and 2 (one whole iteration) come before them.
+        generations = -(-n_trials // population_size)
+        first_local = generations - max(1, round(local_fraction * generations))
+        self._first_local = first_local if local_search and first_local >= 3 else None
+        self._local_generations = generations - first_local
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
         return [{"population_size": 4, "n_trials": 20},
-                {"population_size": 4, "n_trials": 40, "cycle_iters": 2, "patience": 1, "local_fraction": 0.3}]
+                {"population_size": 4, "n_trials": 40, "cycle_iters": 2, "patience": 1, "local_fraction": 0.3,
+                 "recover": False}]
 
     def _propose(self, ctx: Context) -> Move:
         pop = ctx.population
         if pop is None:
             return Move(ctx.rng.random(ctx.dim), "init")
-        if self.local_search and ctx.progress >= 1.0 - self.local_fraction:
-            sigma = self.local_sigma * max(0.1, (1.0 - ctx.progress) / self.local_fraction)
+        if self.recover and np.isfinite(pop.best_fitness):
+            failed = ~np.isfinite(pop.fitness)
+            if failed.any():
+                x = pop.x.copy()
+                x[failed] = pop.best_x
+                pop = Population(x, pop.fitness, pop.best_x, pop.best_fitness, pop.best_history)
+        if self._first_local is not None and ctx.gen >= self._first_local:
+            share = (ctx.gen - self._first_local) / max(1, self._local_generations - 1)  # 0 .. 1 over the phase
+            sigma = self.local_sigma * (1.0 - 0.9 * min(1.0, share))
             return Move(pop.best_x + sigma * ctx.rng.standard_normal(ctx.dim), "local")
         phase = self.phase_of(ctx.gen)
         restart, cf = self._schedule(pop, ctx.gen)
+        start = pop.x[ctx.slot]
         if phase == "search":
             if restart and ctx.slot in self._worst(pop):
-                return Move(1.0 - pop.x[ctx.slot], "restart")
+                return Move(1.0 - start, "restart")
             x = self._search(ctx, pop)
         else:
             x = self._attack(ctx, pop, cf)
         if self.step_clip:
-            step = x - pop.x[ctx.slot]
+            step = x - start
             limit = self.kappa * math.sqrt(ctx.dim)
             norm = float(np.linalg.norm(step))
             if norm > limit:
-                x = pop.x[ctx.slot] + step * (limit / norm)
+                x = start + step * (limit / norm)
         return Move(x, phase)
 
     def _replaces(self, new: Member, old_fitness: float) -> bool:
