@@ -1,7 +1,8 @@
 """Error metrics for displacement channels, all in µm (or µm² for MSE, or dimensionless where stated).
 
 ``compensation_rate`` = 1 − max|residual| / max|measured|: the share of the peak thermal error that a
-compensation with this model would remove. ``relative_error_pct`` = 100 · mean|e| / mean|y|. ``mae`` is mean|e|; ``mean_error`` is the signed bias.
+compensation with this model would remove. ``relative_error_pct`` = 100 · mean|e| / mean|y|. ``mae`` is mean|e|;
+``mean_error`` is the signed bias.
 """
 
 from __future__ import annotations

@@ -26,7 +26,8 @@ def test_experiment_preset_overrides_top_level_keys(cfg_for):
     assert spec.split == "time_window"
     assert spec.split_params == {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}
     # a command-line override still wins over the preset
-    assert spec_from_config(cfg_for("experiment=fl_thermal_5000rpm_heldout", "targets=['ch4(um)']")).targets == ["ch4(um)"]
+    overridden = spec_from_config(cfg_for("experiment=fl_thermal_5000rpm_heldout", "targets=['ch4(um)']"))
+    assert overridden.targets == ["ch4(um)"]
 
 
 def test_hydra_options_are_accepted_anywhere():
