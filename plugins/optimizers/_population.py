@@ -253,8 +253,10 @@ class PopulationSampler(BaseSampler, abc.ABC):
 
     def population(self, study: optuna.Study, gen: int) -> Population:
         """The population that generation ``gen`` (>= 1) of a generational algorithm moves, replayed in full."""
-        space, transform = self._current_space(study)
-        return self._replay(self.members(study), gen, transform.bounds.shape[0])
+        members = self.members(study)
+        if not members:
+            raise ValueError("the study has no members of its current search space yet")
+        return self._replay(members, gen, len(members[0].x))
 
     def _current_space(self, study: optuna.Study) -> tuple[dict[str, BaseDistribution], _SearchSpaceTransform]:
         space = dict(sorted(self.infer_relative_search_space(study, None).items()))
@@ -343,8 +345,7 @@ class PopulationSampler(BaseSampler, abc.ABC):
             return Context(slot, counts[slot], dim, rng, progress, None, latest.get(slot), ledger.slot_best.get(slot),
                            ranked)
 
-        gen = max([ledger.max_gen, *(m.gen for m in pending)], default=-1)
-        gen = max(gen, 0)
+        gen = max(0, ledger.max_gen, *(m.gen for m in pending))
         current = ledger.by_gen.get(gen, []) + [m for m in pending if m.gen == gen]
         if sum(m.finished for m in current) >= n:
             gen, current = gen + 1, []
