@@ -370,8 +370,7 @@ class PopulationSampler(BaseSampler, abc.ABC):
     def _population_of(self, ledger: _Ledger, gen: int, dim: int) -> Population:
         """The population generation ``gen`` moves, continued from the ledger's replays of finished members."""
         if not ledger.replays:
-            ledger.replays.append(_Replayed((None,) * self.population_size, (np.inf,) * self.population_size,
-                                            None, ()))
+            ledger.replays.append(self._before_generation_0())
         while len(ledger.replays) <= gen:
             g = len(ledger.replays) - 1
             cohort = sorted(ledger.by_gen.get(g, []), key=lambda m: m.number)
@@ -379,15 +378,18 @@ class PopulationSampler(BaseSampler, abc.ABC):
         return self._as_population(ledger.replays[gen], dim)
 
     def _replay(self, members: list[Member], gen: int, dim: int) -> Population:
-        """Replay generations 0..gen-1 of ``members`` (any, pending included) into the population of ``gen``."""
-        n = self.population_size
-        state = _Replayed((None,) * n, (np.inf,) * n, None, ())
+        """Replay generations 0..gen-1 of ``members`` (by trial number, pending included) into the population of
+        ``gen``."""
+        state = self._before_generation_0()
         by_gen = defaultdict(list)
-        for m in sorted(members, key=lambda m: m.number):
+        for m in members:
             by_gen[m.gen].append(m)
         for g in range(gen):
             state = self._step(state, by_gen.get(g, []))
         return self._as_population(state, dim)
+
+    def _before_generation_0(self) -> _Replayed:
+        return _Replayed((None,) * self.population_size, (np.inf,) * self.population_size, None, ())
 
     def _step(self, state: _Replayed, cohort: list[Member]) -> _Replayed:
         """Apply one closed generation (its members by trial number) to the replay state."""
