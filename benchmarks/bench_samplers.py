@@ -21,11 +21,16 @@ population size N = 10): ours ``pso``, ``gwo``, ``fa``, ``rbmo``, ``rbmox``; bas
   lr_max <= 1 at the default weight decay never diverged on this recording (0 of 96 probes over activation,
   depth, width, batch size and clip_norm 10-100); training diverges where lr_max x
   weight_decay > 2 (the decoupled decay factor 1 - lr wd flips sign and grows) and for ReLU at lr_max ~ 10.
-  A trial whose training raises ``DivergedError`` fails with user attr ``diverged``; they are counted. Every
-  sampler runs ``--domain-seeds`` seeds (default 20: about one divergence per run, so fewer seeds cannot tell
-  samplers apart), GP only ``--gp-domain-seeds`` (default 10; it takes a minute per run). RBMO-X and RBMO are
-  compared seed by seed: diverged trials per run (Wilcoxon signed-rank test) and the IQR of the final RMSE
-  (a bootstrap over seeds gives a 95% interval of the IQR difference).
+  A trial whose training raises ``DivergedError`` fails with user attr ``diverged``; they are counted. A study
+  has ``--domain-budget`` trials (default 100 = 10 generations of N: RBMO runs 4 search/attack iterations and
+  RBMO-X's cosine cycle, opposition restarts and final local search all act; at 50 trials two iterations run,
+  RBMO-X is RBMO with small changes, and most diverged trials come from the random generation 0 that both
+  share). Every sampler runs ``--domain-seeds`` seeds (default 12). RBMO-X and RBMO run ``--paired-domain-seeds``
+  (default 30) and are compared seed by seed: diverged trials per run (Wilcoxon signed-rank test) and the IQR of
+  the final RMSE (a bootstrap over seeds gives a 95% interval of the IQR difference); divergence is rare (under
+  one trial per run), so fewer seeds cannot tell them apart. GP takes a minute per 50-trial run and its cost
+  grows with every trial, so it runs ``--gp-domain-budget`` trials (default 50) and ``--gp-domain-seeds`` seeds
+  (default 6); every sampler's best-so-far RMSE at that trial stands beside it.
 * **Overhead**: milliseconds per ask (``study.ask`` + the suggestions + ``study.tell``, in-memory storage, D = 5)
   once the study holds 100 and 1000 finished trials. Each study is filled by running the sampler itself,
   since the population samplers and CMA-ES keep their state in the trials' attributes; GP is filled with
@@ -35,7 +40,7 @@ Statistics: median and IQR of the final regret per (function, D, sampler); Fried
 medians over the (function, D) cells, Wilcoxon signed-rank tests of every sampler against the best-ranked one
 over those cells with Holm's correction; the share of cells where a sampler's median regret is below Random's.
 
-Run ``python benchmarks/bench_samplers.py`` (about 30 minutes on 2 cores; ``--quick`` for a smoke test). It prints
+Run ``python benchmarks/bench_samplers.py`` (under 30 minutes on 2 idle cores; ``--quick`` for a smoke test). It prints
 the markdown report and writes it to ``--out`` with the command that made it at the top.
 """
 
@@ -58,6 +63,7 @@ from typing import Any
 import numpy as np
 
 OURS = ("pso", "gwo", "fa", "rbmo", "rbmox")
+PAIRED = ("rbmox", "rbmo")  # compared seed by seed on the domain task
 BASELINES = ("tpe", "cmaes", "gp", "random")
 POPULATION_SIZE = 10  # the population samplers' default N; budgets are multiples of it
 FUNCTIONS = {1: "sphere", 3: "Rastrigin", 7: "step ellipsoid", 8: "Rosenbrock", 10: "rot. ellipsoid",
@@ -81,6 +87,8 @@ class Config:
     gp_seeds: int
     domain_budget: int
     domain_seeds: int
+    paired_domain_seeds: int
+    gp_domain_budget: int
     gp_domain_seeds: int
     domain_epochs: int
     overhead_sizes: tuple[int, ...]
@@ -233,12 +241,14 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
                         budget = config.budget(dim)
                         jobs.append((budget * (3 if name == "tpe" else 1) / 1e4, bbob_run,
                                      (name, fid, dim, seed, budget)))
-    for seed in range(config.domain_seeds):
-        for name in samplers:
-            if name == "gp" and seed >= config.gp_domain_seeds:
-                continue
-            jobs.append((3 if name == "gp" else 1, domain_run,
-                         (name, seed, config.domain_budget, config.domain_epochs)))
+    for name in samplers:
+        seeds, budget = config.domain_seeds, config.domain_budget
+        if name in PAIRED:
+            seeds = config.paired_domain_seeds
+        elif name == "gp":
+            seeds, budget = config.gp_domain_seeds, config.gp_domain_budget
+        for seed in range(seeds):
+            jobs.append((3 if name == "gp" else 1, domain_run, (name, seed, budget, config.domain_epochs)))
     for name in samplers:
         jobs.append((4, overhead_run, (name, config.overhead_sizes)))
     jobs.sort(key=lambda job: -job[0])
@@ -303,8 +313,9 @@ def rank_test(medians: dict[str, list[float]]) -> tuple[dict[str, float], str, d
 
 def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], label: tuple[str, str] = ("RBMO-X",
                       "RBMO"), resamples: int = 10_000) -> str:
-    """RBMO-X against RBMO on the domain task, paired by seed: diverged trials per run (Wilcoxon signed-rank) and
-    the IQR of the final RMSE with a bootstrap 95% interval of the IQR difference (seeds resampled in pairs)."""
+    """RBMO-X against RBMO on the domain task, paired by seed: diverged trials per run (Wilcoxon signed-rank), the
+    IQR of the final RMSE with a bootstrap 95% interval of the IQR difference (seeds resampled in pairs) and the
+    median final RMSE (Wilcoxon signed-rank)."""
     from scipy import stats
 
     by_seed = {r["seed"]: r for r in old}
@@ -312,6 +323,7 @@ def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], labe
     div_new, div_old = (np.array([p[i]["diverged"] for p in pairs]) for i in (0, 1))
     fin_new, fin_old = (np.array([p[i]["curve"][-1] for p in pairs]) for i in (0, 1))
     p_div = 1.0 if np.all(div_new == div_old) else float(stats.wilcoxon(div_new, div_old).pvalue)
+    p_fin = 1.0 if np.all(fin_new == fin_old) else float(stats.wilcoxon(fin_new, fin_old).pvalue)
     rng = np.random.default_rng(0)
     picks = rng.integers(len(pairs), size=(resamples, len(pairs)))
     diffs = [iqr(fin_new[i]) - iqr(fin_old[i]) for i in picks]
@@ -320,7 +332,8 @@ def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], labe
             f"{div_old.sum()} (runs with any: {int((div_new > 0).sum())} vs {int((div_old > 0).sum())}; Wilcoxon "
             f"p = {_fmt(p_div)}); IQR of the final RMSE {_fmt(iqr(fin_new))} vs {_fmt(iqr(fin_old))} µm, "
             f"difference {_fmt(iqr(fin_new) - iqr(fin_old))} µm (bootstrap 95% interval {_fmt(low)} to "
-            f"{_fmt(high)}); median {_fmt(float(np.median(fin_new)))} vs {_fmt(float(np.median(fin_old)))} µm.\n")
+            f"{_fmt(high)}); median {_fmt(float(np.median(fin_new)))} vs {_fmt(float(np.median(fin_old)))} µm "
+            f"(Wilcoxon p = {_fmt(p_fin)}).\n")
 
 
 def _fmt(x: float) -> str:
@@ -352,7 +365,9 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
            f"({', '.join(f'D={d}: {config.budget(d)}' for d in config.dims)}), {config.seeds} seeds "
            f"(seed s = BBOB instance s+1 for every sampler). GP: first {config.gp_budget} trials "
            f"({config.gp_seeds} seeds) only, see its own table. Domain task: {config.domain_budget} trials, "
-           f"{config.domain_seeds} seeds. Defaults of every sampler; see the script's docstring for the protocol.\n")]
+           f"{config.domain_seeds} seeds ({' and '.join(PAIRED)} {config.paired_domain_seeds}; GP "
+           f"{config.gp_domain_budget} trials, {config.gp_domain_seeds} seeds). Defaults of every sampler; see the "
+           "script's docstring for the protocol.\n")]
 
     # final regret
     out.append("## Final regret on BBOB: median (IQR) over seeds\n")
@@ -413,24 +428,26 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
             domain[r["sampler"]].append(r)
     if domain:
         out.append(f"\n## Domain task: tuning `bp` on {_domain_data()[4]}\n")
-        out.append(f"Validation RMSE (µm) of the best trial after {config.domain_budget} trials "
-                   f"({config.domain_epochs} epochs each) over {config.domain_seeds} seeds (GP "
-                   f"{config.gp_domain_seeds}); diverged = trials whose training raised DivergedError (failed "
-                   "trials).\n")
-        out.append("| sampler | median RMSE µm | IQR µm | best / worst µm | diverged trials (total) | "
-                   "diverged per run (median, max) | s per run |")
-        out.append("|---|---|---|---|---|---|---|")
+        cap = config.gp_domain_budget
+        out.append(f"Validation RMSE (µm) of the best trial after the run's trials ({config.domain_epochs} epochs "
+                   f"each), over the sampler's seeds 0, 1, ...; `at {cap}` is the best-so-far after trial {cap} of "
+                   "the same runs (GP's budget; the population samplers' schedules still assume the full budget). "
+                   "Diverged = trials whose training raised DivergedError (failed trials).\n")
+        out.append(f"| sampler | seeds | trials | median RMSE µm | IQR µm | best / worst µm | median at {cap} µm | "
+                   "diverged trials (total) | diverged per run (mean, max) | s per run |")
+        out.append("|---|---|---|---|---|---|---|---|---|---|")
         for s in OURS + BASELINES:
             runs = domain.get(s)
             if not runs:
                 continue
             finals = [r["curve"][-1] for r in runs]
             div = [r["diverged"] for r in runs]
-            out.append(f"| {s} | {_fmt(float(np.median(finals)))} | {_fmt(iqr(finals))} | "
-                       f"{_fmt(min(finals))} / {_fmt(max(finals))} | {sum(div)} | {np.median(div):g}, {max(div)} | "
-                       f"{np.median([r['seconds'] for r in runs]):.1f} |")
-        if "rbmox" in domain and "rbmo" in domain:
-            out.append("\n" + paired_comparison(domain["rbmox"], domain["rbmo"]))
+            out.append(f"| {s} | {len(runs)} | {len(runs[0]['curve'])} | {_fmt(float(np.median(finals)))} | "
+                       f"{_fmt(iqr(finals))} | {_fmt(min(finals))} / {_fmt(max(finals))} | "
+                       f"{_fmt(float(np.median([r['curve'][cap - 1] for r in runs])))} | {sum(div)} | "
+                       f"{np.mean(div):.2f}, {max(div)} | {np.median([r['seconds'] for r in runs]):.1f} |")
+        if all(name in domain for name in PAIRED):
+            out.append("\n" + paired_comparison(*(domain[name] for name in PAIRED)))
 
     # overhead
     over = {r["sampler"]: r["ms"] for r in results if r["part"] == "overhead"}
@@ -474,10 +491,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         + ",".join(map(str, FUNCTIONS)) + ")")
     parser.add_argument("--gp-budget", type=int, help="GP's BBOB budget in trials (default 30)")
     parser.add_argument("--gp-seeds", type=int, help="seeds GP runs per BBOB cell (default 2)")
-    parser.add_argument("--domain-budget", type=int, help="trials per domain study (default 50 = N + 2 RBMO "
+    parser.add_argument("--domain-budget", type=int, help="trials per domain study (default 100 = N + 4.5 RBMO "
                         "iterations)")
-    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 20)")
-    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 10)")
+    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 12)")
+    parser.add_argument("--paired-domain-seeds", type=int, help="seeds RBMO-X and RBMO run on the domain task for "
+                        "their paired comparison (default 30)")
+    parser.add_argument("--gp-domain-budget", type=int, help="GP's domain budget in trials (default 50)")
+    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 6)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--out", default="docs/sampler_benchmark.md", help="markdown report path")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -488,19 +508,23 @@ def config_from(args: argparse.Namespace) -> Config:
     quick = args.quick
     defaults = {"seeds": 2 if quick else 10, "dims": "2" if quick else "2,5,10", "budget_mult": 1 if quick else 3,
                 "functions": "1,3" if quick else ",".join(map(str, FUNCTIONS)), "gp_budget": 11 if quick else 30,
-                "gp_seeds": 2, "domain_budget": 10 if quick else 50, "domain_seeds": 2 if quick else 20,
-                "gp_domain_seeds": 2 if quick else 10}
+                "gp_seeds": 2, "domain_budget": 10 if quick else 100, "domain_seeds": 2 if quick else 12,
+                "paired_domain_seeds": 3 if quick else 30, "gp_domain_budget": 10 if quick else 50,
+                "gp_domain_seeds": 2 if quick else 6}
     value = {k: getattr(args, k) if getattr(args, k) is not None else v for k, v in defaults.items()}
     config = Config(seeds=value["seeds"], dims=tuple(int(d) for d in str(value["dims"]).split(",")),
                     budget_mult=value["budget_mult"],
                     functions=tuple(int(f) for f in str(value["functions"]).split(",")),
                     gp_budget=value["gp_budget"], gp_seeds=min(value["gp_seeds"], value["seeds"]),
                     domain_budget=value["domain_budget"], domain_seeds=value["domain_seeds"],
-                    gp_domain_seeds=min(value["gp_domain_seeds"], value["domain_seeds"]),
+                    paired_domain_seeds=value["paired_domain_seeds"], gp_domain_budget=value["gp_domain_budget"],
+                    gp_domain_seeds=value["gp_domain_seeds"],
                     domain_epochs=5 if quick else DOMAIN_EPOCHS,
                     overhead_sizes=(4, 8) if quick else (100, 1000), workers=args.workers)
-    if config.seeds < 2 or config.domain_seeds < 2 or config.gp_domain_seeds < 2:
-        raise SystemExit("--seeds and --domain-seeds must be >= 2 (medians and IQRs over seeds)")
+    if min(config.seeds, config.domain_seeds, config.paired_domain_seeds, config.gp_domain_seeds) < 2:
+        raise SystemExit("--seeds and every --*domain-seeds must be >= 2 (medians and IQRs over seeds)")
+    if config.gp_domain_budget > config.domain_budget:
+        raise SystemExit("--gp-domain-budget must not exceed --domain-budget (GP is compared at that trial)")
     if config.gp_budget > min(config.budget(d) for d in config.dims):
         raise SystemExit("--gp-budget must not exceed the smallest BBOB budget (GP is compared at that trial)")
     return config

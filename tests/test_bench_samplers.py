@@ -72,15 +72,19 @@ def test_gp_domain_and_overhead_tables(report):
     gp = _table(report, "At GP's budget")
     assert gp[0][2:] == SAMPLERS and all(float(c) >= 0 for row in gp[1:] for c in row[2:])
     domain = _table(report, "Domain task")
+    assert domain[0][:3] == ["sampler", "seeds", "trials"] and domain[0][6] == "median at 10 µm"
     assert [r[0] for r in domain[1:]] == SAMPLERS
+    seeds = {r[0]: int(r[1]) for r in domain[1:]}
+    assert seeds == {name: 3 if name in ("rbmo", "rbmox") else 2 for name in SAMPLERS}  # the pair runs more seeds
     for row in domain[1:]:
-        assert float(row[1]) > 0 and float(row[2]) >= 0 and int(row[4]) >= 0
+        assert int(row[2]) == 10 and float(row[3]) > 0 and float(row[4]) >= 0 and int(row[7]) >= 0
+        assert float(row[6]) == float(row[3])  # at the full budget of 10 the best-so-far is the final value
     overhead = _table(report, "Sampler overhead")
     assert overhead[0] == ["sampler", "4 trials", "8 trials"]
     assert [r[0] for r in overhead[1:]] == SAMPLERS and all(
         float(cpu) > 0 and float(wall) > 0
         for r in overhead[1:] for cpu, wall in (re.fullmatch(r"(\S+) \((\S+)\)", c).groups() for c in r[1:]))
-    assert re.search(r"RBMO-X vs RBMO, 2 paired seeds: diverged trials \d+ vs \d+ .*Wilcoxon p = ", report)
+    assert re.search(r"RBMO-X vs RBMO, 3 paired seeds: diverged trials \d+ vs \d+ .*Wilcoxon p = ", report)
 
 
 def _bench_module(name: str):
