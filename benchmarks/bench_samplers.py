@@ -20,17 +20,18 @@ population size N = 10): ours ``pso``, ``gwo``, ``fa``, ``rbmo``, ``rbmox``; bas
   AdamW weight decay up to 3 and ReLU as well as tanh. AdamW bounds every step by the learning rate, so
   lr_max <= 1 at the default weight decay never diverged on this recording (0 of 96 probes over activation,
   depth, width, batch size and clip_norm 10-100); training diverges where lr_max x
-  weight_decay > 2 (the decoupled decay factor 1 - lr wd flips sign and grows) and for ReLU at lr_max ~ 10.
+  weight_decay > 2 (the decoupled decay factor 1 - lr wd flips sign and grows) and for ReLU from lr_max ~ 2.5
+  up (the smallest diverged ReLU trial seen in these studies).
   A trial whose training raises ``DivergedError`` fails with user attr ``diverged``; they are counted. A study
   has ``--domain-budget`` trials (default 100 = 10 generations of N: RBMO runs 4 search/attack iterations and
   RBMO-X's cosine cycle, opposition restarts and final local search all act; at 50 trials two iterations run,
   RBMO-X is RBMO with small changes, and most diverged trials come from the random generation 0 that both
-  share). Every sampler runs ``--domain-seeds`` seeds (default 12). RBMO-X and RBMO run ``--paired-domain-seeds``
+  share). Every sampler runs ``--domain-seeds`` seeds (default 10). RBMO-X and RBMO run ``--paired-domain-seeds``
   (default 30) and are compared seed by seed: diverged trials per run (Wilcoxon signed-rank test) and the IQR of
   the final RMSE (a bootstrap over seeds gives a 95% interval of the IQR difference); divergence is rare (under
   one trial per run), so fewer seeds cannot tell them apart. GP takes a minute per 50-trial run and its cost
   grows with every trial, so it runs ``--gp-domain-budget`` trials (default 50) and ``--gp-domain-seeds`` seeds
-  (default 6); every sampler's best-so-far RMSE at that trial stands beside it.
+  (default 5); every sampler's best-so-far RMSE at that trial stands beside it.
 * **Overhead**: milliseconds per ask (``study.ask`` + the suggestions + ``study.tell``, in-memory storage, D = 5)
   once the study holds 100 and 1000 finished trials. Each study is filled by running the sampler itself,
   since the population samplers and CMA-ES keep their state in the trials' attributes; GP is filled with
@@ -40,8 +41,9 @@ Statistics: median and IQR of the final regret per (function, D, sampler); Fried
 medians over the (function, D) cells, Wilcoxon signed-rank tests of every sampler against the best-ranked one
 over those cells with Holm's correction; the share of cells where a sampler's median regret is below Random's.
 
-Run ``python benchmarks/bench_samplers.py`` (under 30 minutes on 2 idle cores; ``--quick`` for a smoke test). It prints
-the markdown report and writes it to ``--out`` with the command that made it at the top.
+Run ``python benchmarks/bench_samplers.py`` (under 30 minutes on 2 cores; ``--quick`` for a smoke test,
+``--parts domain`` for one part). It prints the markdown report and writes it to ``--out`` with the command that
+made it at the top.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ import numpy as np
 
 OURS = ("pso", "gwo", "fa", "rbmo", "rbmox")
 PAIRED = ("rbmox", "rbmo")  # compared seed by seed on the domain task
+PARTS = ("bbob", "domain", "overhead")
 BASELINES = ("tpe", "cmaes", "gp", "random")
 POPULATION_SIZE = 10  # the population samplers' default N; budgets are multiples of it
 FUNCTIONS = {1: "sphere", 3: "Rastrigin", 7: "step ellipsoid", 8: "Rosenbrock", 10: "rot. ellipsoid",
@@ -93,6 +96,7 @@ class Config:
     domain_epochs: int
     overhead_sizes: tuple[int, ...]
     workers: int
+    parts: tuple[str, ...] = PARTS
 
     def budget(self, dim: int) -> int:
         return self.budget_mult * POPULATION_SIZE * dim
@@ -230,7 +234,7 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
     """Every independent run, the longest first so that the two workers finish together."""
     samplers = OURS + BASELINES
     jobs: list[tuple[float, Callable, tuple]] = []  # (cost class for the ordering, function, arguments)
-    for fid in config.functions:
+    for fid in config.functions if "bbob" in config.parts else ():
         for dim in config.dims:
             for seed in range(config.seeds):
                 for name in samplers:
@@ -241,7 +245,7 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
                         budget = config.budget(dim)
                         jobs.append((budget * (3 if name == "tpe" else 1) / 1e4, bbob_run,
                                      (name, fid, dim, seed, budget)))
-    for name in samplers:
+    for name in samplers if "domain" in config.parts else ():
         seeds, budget = config.domain_seeds, config.domain_budget
         if name in PAIRED:
             seeds = config.paired_domain_seeds
@@ -249,7 +253,7 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
             seeds, budget = config.gp_domain_seeds, config.gp_domain_budget
         for seed in range(seeds):
             jobs.append((3 if name == "gp" else 1, domain_run, (name, seed, budget, config.domain_epochs)))
-    for name in samplers:
+    for name in samplers if "overhead" in config.parts else ():
         jobs.append((4, overhead_run, (name, config.overhead_sizes)))
     jobs.sort(key=lambda job: -job[0])
     return [(func, args) for _, func, args in jobs]
@@ -342,11 +346,35 @@ def _fmt(x: float) -> str:
 
 def report(config: Config, results: list[dict[str, Any]], command: str, seconds: float,
            load: tuple[float, float]) -> str:
+    """The markdown report: what ran and how long, then the sections of the parts that ran."""
     from importlib.metadata import version
 
     import optuna
     import torch
 
+    out = [f"# Sampler benchmark\n\nGenerated by `{command}`\n",
+           (f"{len(results)} runs in {seconds / 60:.1f} min on {config.workers} worker processes "
+           f"({os.cpu_count()} cores; load average {load[0]:.1f} at start, {load[1]:.1f} at end; the machine is "
+           f"shared, so times are upper bounds). Python {platform.python_version()}, optuna {optuna.__version__}, "
+           f"ioh {version('ioh')}, torch {torch.__version__}, numpy {np.__version__}.\n"),
+           f"Parts: {', '.join(config.parts)}. Budgets: N = {POPULATION_SIZE}"]
+    if "bbob" in config.parts:
+        out[-1] += (f"; {config.budget_mult}·N·D trials per BBOB study "
+                    f"({', '.join(f'D={d}: {config.budget(d)}' for d in config.dims)}), {config.seeds} seeds "
+                    f"(seed s = BBOB instance s+1 for every sampler), GP: first {config.gp_budget} trials "
+                    f"({config.gp_seeds} seeds) only, see its own table")
+    if "domain" in config.parts:
+        out[-1] += (f"; domain task: {config.domain_budget} trials, {config.domain_seeds} seeds "
+                    f"({' and '.join(PAIRED)} {config.paired_domain_seeds}; GP {config.gp_domain_budget} trials, "
+                    f"{config.gp_domain_seeds} seeds)")
+    out[-1] += ". Defaults of every sampler; see the script's docstring for the protocol.\n"
+    for section in (bbob_sections, domain_section, overhead_section, runtime_section):
+        out += section(config, results)
+    return "\n".join(out) + "\n"
+
+
+def bbob_sections(config: Config, results: list[dict[str, Any]]) -> list[str]:
+    """Final regret per cell, Friedman ranks, and every sampler at GP's capped budget."""
     samplers = [s for s in OURS + BASELINES if s != "gp"]
     bbob = defaultdict(dict)  # (fid, dim) -> sampler -> [curve per seed]
     for r in results:
@@ -356,21 +384,9 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
     for cell in cells:
         for name in bbob[cell]:
             bbob[cell][name] = [c for _, c in sorted(bbob[cell][name])]
-    out = [f"# Sampler benchmark\n\nGenerated by `{command}`\n",
-           (f"{len(results)} runs in {seconds / 60:.1f} min on {config.workers} worker processes "
-           f"({os.cpu_count()} cores; load average {load[0]:.1f} at start, {load[1]:.1f} at end; the machine is "
-           f"shared, so times are upper bounds). Python {platform.python_version()}, optuna {optuna.__version__}, "
-           f"ioh {version('ioh')}, torch {torch.__version__}, numpy {np.__version__}.\n"),
-           (f"Budgets: N = {POPULATION_SIZE}, {config.budget_mult}·N·D trials per BBOB study "
-           f"({', '.join(f'D={d}: {config.budget(d)}' for d in config.dims)}), {config.seeds} seeds "
-           f"(seed s = BBOB instance s+1 for every sampler). GP: first {config.gp_budget} trials "
-           f"({config.gp_seeds} seeds) only, see its own table. Domain task: {config.domain_budget} trials, "
-           f"{config.domain_seeds} seeds ({' and '.join(PAIRED)} {config.paired_domain_seeds}; GP "
-           f"{config.gp_domain_budget} trials, {config.gp_domain_seeds} seeds). Defaults of every sampler; see the "
-           "script's docstring for the protocol.\n")]
-
-    # final regret
-    out.append("## Final regret on BBOB: median (IQR) over seeds\n")
+    if not cells:
+        return []
+    out = ["## Final regret on BBOB: median (IQR) over seeds\n"]
     out.append("| function | D | " + " | ".join(samplers) + " |")
     out.append("|---|---|" + "---|" * len(samplers))
     medians: dict[str, list[float]] = {s: [] for s in samplers}
@@ -420,64 +436,76 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
                        for s in sorted(names, key=ranks_cap.get)) + ".")
         gp_secs = [r["seconds"] for r in results if r["part"] == "bbob" and r["sampler"] == "gp"]
         out.append(f"GP took {np.median(gp_secs):.1f} s per {cap}-trial run (median; max {max(gp_secs):.1f} s).\n")
+    return out
 
-    # domain task
+
+def domain_section(config: Config, results: list[dict[str, Any]]) -> list[str]:
+    """The domain task's table and the paired RBMO-X vs RBMO comparison."""
     domain = defaultdict(list)
     for r in results:
         if r["part"] == "domain":
             domain[r["sampler"]].append(r)
-    if domain:
-        out.append(f"\n## Domain task: tuning `bp` on {_domain_data()[4]}\n")
-        cap = config.gp_domain_budget
-        out.append(f"Validation RMSE (µm) of the best trial after the run's trials ({config.domain_epochs} epochs "
-                   f"each), over the sampler's seeds 0, 1, ...; `at {cap}` is the best-so-far after trial {cap} of "
-                   "the same runs (GP's budget; the population samplers' schedules still assume the full budget). "
-                   "Diverged = trials whose training raised DivergedError (failed trials).\n")
-        out.append(f"| sampler | seeds | trials | median RMSE µm | IQR µm | best / worst µm | median at {cap} µm | "
-                   "diverged trials (total) | diverged per run (mean, max) | s per run |")
-        out.append("|---|---|---|---|---|---|---|---|---|---|")
-        for s in OURS + BASELINES:
-            runs = domain.get(s)
-            if not runs:
-                continue
-            finals = [r["curve"][-1] for r in runs]
-            div = [r["diverged"] for r in runs]
-            out.append(f"| {s} | {len(runs)} | {len(runs[0]['curve'])} | {_fmt(float(np.median(finals)))} | "
-                       f"{_fmt(iqr(finals))} | {_fmt(min(finals))} / {_fmt(max(finals))} | "
-                       f"{_fmt(float(np.median([r['curve'][cap - 1] for r in runs])))} | {sum(div)} | "
-                       f"{np.mean(div):.2f}, {max(div)} | {np.median([r['seconds'] for r in runs]):.1f} |")
-        if all(name in domain for name in PAIRED):
-            out.append("\n" + paired_comparison(*(domain[name] for name in PAIRED)))
+    if not domain:
+        return []
+    out = [f"\n## Domain task: tuning `bp` on {_domain_data()[4]}\n"]
+    cap = config.gp_domain_budget
+    out.append(f"Validation RMSE (µm) of the best trial after the run's trials ({config.domain_epochs} epochs "
+               f"each), over the sampler's seeds 0, 1, ...; `at {cap}` is the best-so-far after trial {cap} of "
+               "the same runs (GP's budget; the population samplers' schedules still assume the full budget). "
+               "Diverged = trials whose training raised DivergedError (failed trials).\n")
+    out.append(f"| sampler | seeds | trials | median RMSE µm | IQR µm | best / worst µm | median at {cap} µm | "
+               "diverged trials (total) | diverged per run (mean, max) | s per run |")
+    out.append("|---|---|---|---|---|---|---|---|---|---|")
+    for s in OURS + BASELINES:
+        runs = domain.get(s)
+        if not runs:
+            continue
+        finals = [r["curve"][-1] for r in runs]
+        div = [r["diverged"] for r in runs]
+        out.append(f"| {s} | {len(runs)} | {len(runs[0]['curve'])} | {_fmt(float(np.median(finals)))} | "
+                   f"{_fmt(iqr(finals))} | {_fmt(min(finals))} / {_fmt(max(finals))} | "
+                   f"{_fmt(float(np.median([r['curve'][cap - 1] for r in runs])))} | {sum(div)} | "
+                   f"{np.mean(div):.2f}, {max(div)} | {np.median([r['seconds'] for r in runs]):.1f} |")
+    if all(name in domain for name in PAIRED):
+        out.append("\n" + paired_comparison(*(domain[name] for name in PAIRED)))
+    return out
 
-    # overhead
+
+def overhead_section(config: Config, results: list[dict[str, Any]]) -> list[str]:
+    """Milliseconds per ask at each study size."""
     over = {r["sampler"]: r["ms"] for r in results if r["part"] == "overhead"}
-    if over:
-        sizes = sorted(config.overhead_sizes)
-        out.append(f"\n## Sampler overhead: ms per ask (ask + {OVERHEAD_DIM} suggestions + tell, in-memory storage)\n")
-        out.append("CPU ms (wall ms in brackets): median over the asks that follow a study of the given size, "
-                   "timed while the other worker ran, so wall time includes waiting for a core; GP's study is "
-                   "filled with random trials. Random's row is Optuna's own cost per trial.\n")
-        out.append("| sampler | " + " | ".join(f"{n} trials" for n in sizes) + " |")
-        out.append("|---|" + "---|" * len(sizes))
-        for s in OURS + BASELINES:
-            if s in over:
-                out.append(f"| {s} | " + " | ".join(f"{over[s][n][0]:.2f} ({over[s][n][1]:.2f})" for n in sizes)
-                           + " |")
-    # where the time went
+    if not over:
+        return []
+    sizes = sorted(config.overhead_sizes)
+    out = [f"\n## Sampler overhead: ms per ask (ask + {OVERHEAD_DIM} suggestions + tell, in-memory storage)\n"]
+    out.append("CPU ms (wall ms in brackets): median over the asks that follow a study of the given size, "
+               "timed while the other worker ran, so wall time includes waiting for a core; GP's study is "
+               "filled with random trials. Random's row is Optuna's own cost per trial.\n")
+    out.append("| sampler | " + " | ".join(f"{n} trials" for n in sizes) + " |")
+    out.append("|---|" + "---|" * len(sizes))
+    for s in OURS + BASELINES:
+        if s in over:
+            out.append(f"| {s} | " + " | ".join(f"{over[s][n][0]:.2f} ({over[s][n][1]:.2f})" for n in sizes)
+                       + " |")
+    return out
+
+
+def runtime_section(config: Config, results: list[dict[str, Any]]) -> list[str]:
+    """Worker wall and CPU seconds per part and sampler."""
     wall, cpu = defaultdict(float), defaultdict(float)
     for r in results:
         wall[(r["part"], r["sampler"])] += r["seconds"]
         cpu[(r["part"], r["sampler"])] += r["cpu_seconds"]
-    parts = [p for p in ("bbob", "domain", "overhead") if any(k[0] == p for k in wall)]
+    parts = [p for p in PARTS if any(k[0] == p for k in wall)]
     total_cpu = sum(cpu.values())
-    out.append("\n## Run time: worker seconds per part and sampler, wall / CPU\n")
+    out = ["\n## Run time: worker seconds per part and sampler, wall / CPU\n"]
     out.append(f"CPU time is what the runs cost without the other load: {total_cpu / 60:.1f} CPU-minutes in all, "
                f"{total_cpu / 60 / config.workers:.1f} min of wall time on {config.workers} idle cores.\n")
     out.append("| sampler | " + " | ".join(parts) + " |")
     out.append("|---|" + "---|" * len(parts))
     for s in OURS + BASELINES:
         out.append(f"| {s} | " + " | ".join(f"{wall[(p, s)]:.0f} / {cpu[(p, s)]:.0f}" for p in parts) + " |")
-    return "\n".join(out) + "\n"
+    return out
 
 
 # ------------------------------------------------------------------------------------------------ command line
@@ -493,11 +521,13 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--gp-seeds", type=int, help="seeds GP runs per BBOB cell (default 2)")
     parser.add_argument("--domain-budget", type=int, help="trials per domain study (default 100 = N + 4.5 RBMO "
                         "iterations)")
-    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 12)")
+    parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 10)")
     parser.add_argument("--paired-domain-seeds", type=int, help="seeds RBMO-X and RBMO run on the domain task for "
                         "their paired comparison (default 30)")
     parser.add_argument("--gp-domain-budget", type=int, help="GP's domain budget in trials (default 50)")
-    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 6)")
+    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 5)")
+    parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated parts to run (default: all of "
+                        + ",".join(PARTS) + ")")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
     parser.add_argument("--out", default="docs/sampler_benchmark.md", help="markdown report path")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -508,9 +538,9 @@ def config_from(args: argparse.Namespace) -> Config:
     quick = args.quick
     defaults = {"seeds": 2 if quick else 10, "dims": "2" if quick else "2,5,10", "budget_mult": 1 if quick else 3,
                 "functions": "1,3" if quick else ",".join(map(str, FUNCTIONS)), "gp_budget": 11 if quick else 30,
-                "gp_seeds": 2, "domain_budget": 10 if quick else 100, "domain_seeds": 2 if quick else 12,
+                "gp_seeds": 2, "domain_budget": 10 if quick else 100, "domain_seeds": 2 if quick else 10,
                 "paired_domain_seeds": 3 if quick else 30, "gp_domain_budget": 10 if quick else 50,
-                "gp_domain_seeds": 2 if quick else 6}
+                "gp_domain_seeds": 2 if quick else 5}
     value = {k: getattr(args, k) if getattr(args, k) is not None else v for k, v in defaults.items()}
     config = Config(seeds=value["seeds"], dims=tuple(int(d) for d in str(value["dims"]).split(",")),
                     budget_mult=value["budget_mult"],
@@ -520,7 +550,10 @@ def config_from(args: argparse.Namespace) -> Config:
                     paired_domain_seeds=value["paired_domain_seeds"], gp_domain_budget=value["gp_domain_budget"],
                     gp_domain_seeds=value["gp_domain_seeds"],
                     domain_epochs=5 if quick else DOMAIN_EPOCHS,
-                    overhead_sizes=(4, 8) if quick else (100, 1000), workers=args.workers)
+                    overhead_sizes=(4, 8) if quick else (100, 1000), workers=args.workers,
+                    parts=tuple(args.parts.split(",")))
+    if not config.parts or set(config.parts) - set(PARTS):
+        raise SystemExit(f"--parts takes a comma-separated subset of {','.join(PARTS)}, got {args.parts!r}")
     if min(config.seeds, config.domain_seeds, config.paired_domain_seeds, config.gp_domain_seeds) < 2:
         raise SystemExit("--seeds and every --*domain-seeds must be >= 2 (medians and IQRs over seeds)")
     if config.gp_domain_budget > config.domain_budget:

@@ -87,6 +87,24 @@ def test_gp_domain_and_overhead_tables(report):
     assert re.search(r"RBMO-X vs RBMO, 3 paired seeds: diverged trials \d+ vs \d+ .*Wilcoxon p = ", report)
 
 
+def test_parts_run_alone(tmp_path):
+    out = tmp_path / "domain.md"
+    args = [sys.executable, str(SCRIPT), "--quick", "--no-progress", "--parts", "domain", "--paired-domain-seeds", "4",
+            "--out", str(out)]
+    done = subprocess.run(args, check=False, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    text = out.read_text(encoding="utf-8")
+    assert "## Domain task" in text and "RBMO-X vs RBMO, 4 paired seeds" in text
+    assert "BBOB" not in text and "## Sampler overhead" not in text
+    assert _table(text, "Run time")[0] == ["sampler", "domain"]
+
+
+def test_unknown_part_is_refused():
+    done = subprocess.run([sys.executable, str(SCRIPT), "--quick", "--parts", "domain,bbbob"], check=False, cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode != 0 and "--parts takes a comma-separated subset of bbob,domain,overhead" in done.stderr
+
+
 def _bench_module(name: str):
     sys.path.insert(0, str(SCRIPT.parent))
     try:
