@@ -12,7 +12,8 @@ population size N = 10): ours ``pso``, ``gwo``, ``fa``, ``rbmo``, ``rbmox``; bas
   Seed s runs BBOB instance s + 1 for every sampler (paired runs). Regret is f(best) - f(optimum) after the
   last trial. GP spends 0.4-1 s of CPU per model-based trial (its acquisition search runs L-BFGS-B restarts
   one after another), 100 times the others' cost, so on BBOB it runs a capped budget (``--gp-budget`` trials,
-  ``--gp-seeds`` seeds) and is compared with every sampler's best-so-far regret at that trial.
+  ``--gp-seeds`` seeds, at D in ``--gp-dims``: 2 and 5, since a 10-D run costs as much as the two others) and is
+  compared with every sampler's best-so-far regret at that trial.
 * **Domain task**: tuning the ``bp`` network on the ``demo_spindle`` reference recording (the tiny test
   recording where that dataset is missing); objective = validation RMSE (µm, mean over the displacement
   channels) on the fold a study validates on (``splits.inner_fold``: the last working condition held out). The
@@ -31,7 +32,7 @@ population size N = 10): ours ``pso``, ``gwo``, ``fa``, ``rbmo``, ``rbmox``; bas
   the final RMSE (a bootstrap over seeds gives a 95% interval of the IQR difference); divergence is rare (under
   one trial per run), so fewer seeds cannot tell them apart. GP takes a minute per 50-trial run and its cost
   grows with every trial, so it runs ``--gp-domain-budget`` trials (default 50) and ``--gp-domain-seeds`` seeds
-  (default 5); every sampler's best-so-far RMSE at that trial stands beside it.
+  (default 4); every sampler's best-so-far RMSE at that trial stands beside it.
 * **Overhead**: milliseconds per ask (``study.ask`` + the suggestions + ``study.tell``, in-memory storage, D = 5)
   once the study holds 100 and 1000 finished trials. Each study is filled by running the sampler itself,
   since the population samplers and CMA-ES keep their state in the trials' attributes; GP is filled with
@@ -88,6 +89,7 @@ class Config:
     functions: tuple[int, ...]
     gp_budget: int
     gp_seeds: int
+    gp_dims: tuple[int, ...]
     domain_budget: int
     domain_seeds: int
     paired_domain_seeds: int
@@ -239,7 +241,7 @@ def tasks(config: Config) -> list[tuple[Callable[..., dict[str, Any]], tuple]]:
             for seed in range(config.seeds):
                 for name in samplers:
                     if name == "gp":
-                        if seed < config.gp_seeds:
+                        if seed < config.gp_seeds and dim in config.gp_dims:
                             jobs.append((2, bbob_run, (name, fid, dim, seed, config.gp_budget)))
                     else:
                         budget = config.budget(dim)
@@ -362,7 +364,7 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
         out[-1] += (f"; {config.budget_mult}·N·D trials per BBOB study "
                     f"({', '.join(f'D={d}: {config.budget(d)}' for d in config.dims)}), {config.seeds} seeds "
                     f"(seed s = BBOB instance s+1 for every sampler), GP: first {config.gp_budget} trials "
-                    f"({config.gp_seeds} seeds) only, see its own table")
+                    f"({config.gp_seeds} seeds, D={','.join(map(str, config.gp_dims))}) only, see its own table")
     if "domain" in config.parts:
         out[-1] += (f"; domain task: {config.domain_budget} trials, {config.domain_seeds} seeds "
                     f"({' and '.join(PAIRED)} {config.paired_domain_seeds}; GP {config.gp_domain_budget} trials, "
@@ -519,13 +521,14 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         + ",".join(map(str, FUNCTIONS)) + ")")
     parser.add_argument("--gp-budget", type=int, help="GP's BBOB budget in trials (default 30)")
     parser.add_argument("--gp-seeds", type=int, help="seeds GP runs per BBOB cell (default 2)")
+    parser.add_argument("--gp-dims", help="comma-separated dimensions GP runs on BBOB (default 2,5)")
     parser.add_argument("--domain-budget", type=int, help="trials per domain study (default 100 = N + 4.5 RBMO "
                         "iterations)")
     parser.add_argument("--domain-seeds", type=int, help="seeds of the domain task (default 10)")
     parser.add_argument("--paired-domain-seeds", type=int, help="seeds RBMO-X and RBMO run on the domain task for "
                         "their paired comparison (default 30)")
     parser.add_argument("--gp-domain-budget", type=int, help="GP's domain budget in trials (default 50)")
-    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 5)")
+    parser.add_argument("--gp-domain-seeds", type=int, help="seeds GP runs on the domain task (default 4)")
     parser.add_argument("--parts", default=",".join(PARTS), help="comma-separated parts to run (default: all of "
                         + ",".join(PARTS) + ")")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
@@ -538,14 +541,16 @@ def config_from(args: argparse.Namespace) -> Config:
     quick = args.quick
     defaults = {"seeds": 2 if quick else 10, "dims": "2" if quick else "2,5,10", "budget_mult": 1 if quick else 3,
                 "functions": "1,3" if quick else ",".join(map(str, FUNCTIONS)), "gp_budget": 11 if quick else 30,
-                "gp_seeds": 2, "domain_budget": 10 if quick else 100, "domain_seeds": 2 if quick else 10,
+                "gp_seeds": 2, "gp_dims": "2" if quick else "2,5",
+                "domain_budget": 10 if quick else 100, "domain_seeds": 2 if quick else 10,
                 "paired_domain_seeds": 3 if quick else 30, "gp_domain_budget": 10 if quick else 50,
-                "gp_domain_seeds": 2 if quick else 5}
+                "gp_domain_seeds": 2 if quick else 4}
     value = {k: getattr(args, k) if getattr(args, k) is not None else v for k, v in defaults.items()}
     config = Config(seeds=value["seeds"], dims=tuple(int(d) for d in str(value["dims"]).split(",")),
                     budget_mult=value["budget_mult"],
                     functions=tuple(int(f) for f in str(value["functions"]).split(",")),
                     gp_budget=value["gp_budget"], gp_seeds=min(value["gp_seeds"], value["seeds"]),
+                    gp_dims=tuple(int(d) for d in str(value["gp_dims"]).split(",")),
                     domain_budget=value["domain_budget"], domain_seeds=value["domain_seeds"],
                     paired_domain_seeds=value["paired_domain_seeds"], gp_domain_budget=value["gp_domain_budget"],
                     gp_domain_seeds=value["gp_domain_seeds"],
@@ -558,6 +563,8 @@ def config_from(args: argparse.Namespace) -> Config:
         raise SystemExit("--seeds and every --*domain-seeds must be >= 2 (medians and IQRs over seeds)")
     if config.gp_domain_budget > config.domain_budget:
         raise SystemExit("--gp-domain-budget must not exceed --domain-budget (GP is compared at that trial)")
+    if not set(config.gp_dims) <= set(config.dims):
+        raise SystemExit("--gp-dims must be a subset of --dims")
     if config.gp_budget > min(config.budget(d) for d in config.dims):
         raise SystemExit("--gp-budget must not exceed the smallest BBOB budget (GP is compared at that trial)")
     return config
