@@ -12,7 +12,9 @@ calls ``trial.report(val_rmse_um, step=epoch)`` at cycle ends and raises ``optun
 pruner says so. Outside the context nothing is reported.
 
 A torch model subclasses :class:`TorchThermalModel`, names the :class:`TrainerConfig` fields it exposes as
-constructor parameters and implements ``_build(n_inputs, n_outputs) -> nn.Module``.
+constructor parameters and implements ``_build(n_inputs, n_outputs) -> nn.Module``. torch is imported where
+training or prediction starts, not with this module, so loading the plugins (``thermodrift plugins``) does
+not pay for importing torch.
 
 Determinism: training runs under :func:`seeded`, which seeds torch and numpy from ``random_state`` and
 restores the callers' generator states afterwards. On CPU, equal seeds give bit-identical weights for a fixed
@@ -28,17 +30,17 @@ import math
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar, Iterator
+from typing import TYPE_CHECKING, Any, Callable, ClassVar, Iterator
 
 import numpy as np
 import optuna
 import pandas as pd
-import torch
-from torch import nn
-from torch.nn.utils import clip_grad_norm_, get_total_norm
-from torch.optim.lr_scheduler import CosineAnnealingWarmRestarts
 
 from thermodrift.core.components import ThermalModel
+
+if TYPE_CHECKING:
+    import torch
+    from torch import nn
 
 # Stabilisers that RBMO-X tunes together with each network's own parameters (design/optimizers.md).
 _TRAINER_SEARCH_SPACE: dict[str, dict[str, Any]] = {
@@ -55,12 +57,22 @@ def trainer_search_space() -> dict[str, dict[str, Any]]:
     return copy.deepcopy(_TRAINER_SEARCH_SPACE)
 
 
-LOSSES: dict[str, Callable[[torch.Tensor, torch.Tensor], torch.Tensor]] = {
-    "mse": nn.functional.mse_loss,
-    "mae": nn.functional.l1_loss,
-    # The epsilon keeps the gradient finite when a batch is fitted exactly.
-    "rmse": lambda pred, target: torch.sqrt(nn.functional.mse_loss(pred, target) + 1e-12),
-}
+LOSSES = ("mse", "mae", "rmse")
+
+
+def loss_function(name: str) -> Callable[[torch.Tensor, torch.Tensor], torch.Tensor]:
+    """The training loss ``name`` (one of :data:`LOSSES`) on standardised targets."""
+    import torch
+    from torch.nn import functional
+
+    losses = {
+        "mse": functional.mse_loss,
+        "mae": functional.l1_loss,
+        # The epsilon keeps the gradient finite when a batch is fitted exactly.
+        "rmse": lambda pred, target: torch.sqrt(functional.mse_loss(pred, target) + 1e-12),
+    }
+    return losses[name]
+
 
 _PREDICT_CHUNK = 65_536  # rows per forward pass at prediction time, bounds memory on long recordings
 
@@ -206,6 +218,8 @@ def cycle_ends(t0: int, t_mult: int, epochs: int) -> list[int]:
 
 def resolve_device(device: str) -> torch.device:
     """``"auto"`` is CUDA when available, else CPU; anything else is passed to ``torch.device``."""
+    import torch
+
     if device == "auto":
         return torch.device("cuda" if torch.cuda.is_available() else "cpu")
     return torch.device(device)
@@ -214,6 +228,8 @@ def resolve_device(device: str) -> torch.device:
 @contextmanager
 def seeded(seed: int, device: torch.device | None = None) -> Iterator[None]:
     """Seed torch (CPU and ``device``) and numpy's global generator; restore the previous states on exit."""
+    import torch
+
     np_state = np.random.get_state()
     cuda = []
     if device is not None and device.type == "cuda":
@@ -261,6 +277,8 @@ class _GradNormLog:
 
 
 def _rmse_um(module: nn.Module, x: torch.Tensor, y: torch.Tensor, y_scale: torch.Tensor) -> float:
+    import torch
+
     module.eval()
     with torch.no_grad():
         err = (module(x) - y) * y_scale
@@ -271,6 +289,8 @@ def _rmse_um(module: nn.Module, x: torch.Tensor, y: torch.Tensor, y_scale: torch
 def _step(params: list[nn.Parameter], optimizer: torch.optim.Optimizer, loss: torch.Tensor,
           clip_norm: float | None) -> tuple[torch.Tensor, torch.Tensor]:
     """Backward, clip and update; returns the loss and the gradient norm before clipping (device tensors)."""
+    from torch.nn.utils import clip_grad_norm_, get_total_norm
+
     optimizer.zero_grad(set_to_none=True)
     loss.backward()
     if clip_norm is None:
@@ -289,6 +309,9 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
     Returns the weights of the best read point. Raises :class:`DivergedError` on divergence and
     ``optuna.TrialPruned`` when pruned inside :func:`reporting`.
     """
+    import torch
+    from torch.optim.lr_scheduler import CosineAnnealingWarmRestarts
+
     X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float).reshape(len(X), -1)
     if not (np.isfinite(X).all() and np.isfinite(y).all()):
         raise ValueError("training data contain NaN or infinite values")
@@ -312,7 +335,7 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
     report = TrainReport(cycle_ends=cycle_ends(config.t0, config.t_mult, config.epochs))
     read_points = set(report.cycle_ends) | {config.epochs}
     grad_log = _GradNormLog(config.clip_norm, config.diverge_grad_norm, config.diverge_steps)
-    loss_fn = LOSSES[config.loss]
+    loss_fn = loss_function(config.loss)
     started = time.perf_counter()
 
     with seeded(config.random_state, device):
@@ -368,6 +391,8 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
 def predict(module: nn.Module, X: np.ndarray, x_scaler: Standardizer, y_scaler: Standardizer,
             device: torch.device) -> np.ndarray:
     """Run ``module`` on raw inputs ``X`` in chunks and return outputs in target units (µm)."""
+    import torch
+
     xs = x_scaler.transform(X)
     module = module.to(device).eval()
     outs = []
@@ -410,6 +435,8 @@ class TorchThermalModel(ThermalModel):
         self.train_report_ = result.report
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
+        import torch
+
         with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
             module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
         module.load_state_dict(self.state_dict_)

@@ -7,6 +7,7 @@ modules live on ``sys.path`` only for the test, their metadata never, so the pro
 from __future__ import annotations
 
 import importlib.metadata
+import subprocess
 import sys
 import textwrap
 import uuid
@@ -146,3 +147,14 @@ def test_the_third_party_model_comes_from_its_distribution():
     assert (component.origin, component.module) == ("thermodrift-example-plugin", "thermodrift_example_plugin")
     assert "pkg://thermodrift_example_plugin.conf" in reg.searchpaths
     assert all(reg.get("model", n).origin == "thermodrift" for n in ("mlr", "persistence"))
+
+
+def test_loading_every_plugin_imports_neither_torch_nor_scipy_signal():
+    """Listing the plugins must not pay for the heavy imports that only training and simulation need (torch
+    ~2 s, scipy.signal ~1 s); the built-in bp, lptn, physics datasets and mechanisms all load here."""
+    code = ("import sys; from thermodrift.core import registry; reg = registry.default(); "
+            "assert 'bp' in reg.names('model') and 'lptn' in reg.names('model'), reg.names('model'); "
+            "assert not reg.failures, reg.failures; "
+            "print(' '.join(m for m in ('torch', 'scipy.signal') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert not out, f"loading the registry imported {out}"

@@ -59,7 +59,6 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 from scipy import optimize, stats
-from scipy.signal import lfilter
 from threadpoolctl import ThreadpoolController
 
 from thermodrift.core.errors import InputError
@@ -302,6 +301,8 @@ def trajectory(comp: CompiledNetwork, scenario: Scenario | ScenarioArrays,
     instead of a Python loop over steps — the calibration re-simulates hundreds of times. ``initial`` defaults to
     equilibrium at rest with the first sample's boundaries.
     """
+    from scipy.signal import lfilter  # imported here: ~1 s, not to be paid when plugins load
+
     arrays = scenario if isinstance(scenario, ScenarioArrays) else ScenarioArrays.of(scenario)
     with _THREADS.limit(limits=1, user_api="blas"):
         t, speed, flow = arrays.time_s, arrays.speed_rpm, arrays.coolant_flow

@@ -26,7 +26,6 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 from scipy.linalg import expm, lu_factor, lu_solve, schur
-from scipy.signal import lfilter
 from threadpoolctl import ThreadpoolController
 
 from thermodrift.core.errors import InputError
@@ -143,6 +142,8 @@ class CompiledNetwork:
                 x = Phi @ x + W[k]
                 out[k] = x
             return out
+        from scipy.signal import lfilter  # imported here: ~1 s, not to be paid when plugins load
+
         if key not in self._schur:
             self._schur[key] = schur(Phi, output="complex", check_finite=False)
         R, Q = self._schur[key]

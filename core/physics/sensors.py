@@ -13,7 +13,6 @@ from typing import Mapping
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter, lfiltic
 
 TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 
@@ -65,6 +64,8 @@ def first_order_lag(x: np.ndarray, time_s: np.ndarray, tau_s: float) -> np.ndarr
         return x.copy()
     h = np.diff(time_s)
     if np.allclose(h, h[0]):
+        from scipy.signal import lfilter, lfiltic  # imported here: ~1 s, not to be paid when plugins load
+
         a = np.exp(-h[0] / tau_s)
         b0 = 1.0 - tau_s * (1.0 - a) / h[0]  # weight of x_{k+1} under a linear (first-order-hold) input
         b1 = (1.0 - a) - b0

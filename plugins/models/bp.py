@@ -8,12 +8,16 @@ together with the hidden structure.
 
 from __future__ import annotations
 
-from torch import nn
+from typing import TYPE_CHECKING
 
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.training import TorchThermalModel, trainer_search_space
 
-ACTIVATIONS: dict[str, type[nn.Module]] = {"tanh": nn.Tanh, "sigmoid": nn.Sigmoid, "relu": nn.ReLU, "gelu": nn.GELU}
+if TYPE_CHECKING:
+    from torch import nn
+
+# activation -> its torch.nn class name (torch is imported when a network is built, not with the plugin)
+ACTIVATIONS = {"tanh": "Tanh", "sigmoid": "Sigmoid", "relu": "ReLU", "gelu": "GELU"}
 
 
 class BPNetwork(TorchThermalModel):
@@ -63,6 +67,8 @@ class BPNetwork(TorchThermalModel):
         }
 
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
+        from torch import nn
+
         if self.activation not in ACTIVATIONS:
             raise ValueError(f"activation must be one of {sorted(ACTIVATIONS)}, got {self.activation!r}")
         if self.hidden_layers < 0 or self.hidden_units < 1:
@@ -70,7 +76,7 @@ class BPNetwork(TorchThermalModel):
         layers: list[nn.Module] = []
         width = n_inputs
         for _ in range(self.hidden_layers):
-            layers += [nn.Linear(width, self.hidden_units), ACTIVATIONS[self.activation]()]
+            layers += [nn.Linear(width, self.hidden_units), getattr(nn, ACTIVATIONS[self.activation])()]
             width = self.hidden_units
         layers.append(nn.Linear(width, n_outputs))
         return nn.Sequential(*layers)

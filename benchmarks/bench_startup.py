@@ -1,0 +1,57 @@
+"""Start-up cost: how long a fresh process takes to load the plugins, next to the imports it avoids.
+
+Each command runs ``--repeats`` times in a new Python process (wall seconds, median and minimum); the rows
+share one run, so the ratios hold on a busy machine too. ``registry.default()`` loads every installed plugin
+(selectors, models, optimizers, datasets, mechanisms); ``thermodrift plugins`` adds the listing itself.
+The last column names the heavy modules the process ended up importing.
+
+    python benchmarks/bench_startup.py            # or: thermodrift bench startup
+    python benchmarks/bench_startup.py --repeats 10
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+HEAVY = ("torch", "scipy.signal", "scipy.stats", "sklearn", "pandas", "mlflow", "hydra")
+PROBE = "; import sys; print(' '.join(m for m in {heavy!r} if m in sys.modules))"
+COMMANDS = {
+    "python -c pass": "pass",
+    "import thermodrift.core": "import thermodrift.core",
+    "registry.default()": "from thermodrift.core import registry; registry.default()",
+    "thermodrift plugins": "from thermodrift.core.cli import main; main(['plugins'])",
+    "import torch": "import torch",
+    "import scipy.signal": "import scipy.signal",
+}
+
+
+def timed(code: str) -> tuple[float, str]:
+    """Wall seconds of one fresh interpreter running ``code``, and the heavy modules it imported."""
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    start = time.perf_counter()
+    out = subprocess.run([sys.executable, "-c", code + PROBE.format(heavy=HEAVY)], capture_output=True,
+                         text=True, check=True, env=env).stdout
+    return time.perf_counter() - start, out.strip().splitlines()[-1] if out.strip() else ""
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args(argv)
+    timed("pass")  # warm the file cache once
+    rows = {name: [timed(code) for _ in range(args.repeats)] for name, code in COMMANDS.items()}
+    print(f"fresh-process wall seconds, {args.repeats} repeats (Python {sys.version.split()[0]})")
+    print("| command | median s | min s | heavy modules imported |\n|---|---|---|---|")
+    for name, runs in rows.items():
+        seconds = [s for s, _ in runs]
+        print(f"| {name} | {statistics.median(seconds):.2f} | {min(seconds):.2f} | {runs[-1][1] or '-'} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
