@@ -325,7 +325,8 @@ def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], labe
     from scipy import stats
 
     by_seed = {r["seed"]: r for r in old}
-    pairs = [(r, by_seed[r["seed"]]) for r in new if r["seed"] in by_seed]
+    # In seed order: runs finish in any order, and the bootstrap draws pairs by position.
+    pairs = [(r, by_seed[r["seed"]]) for r in sorted(new, key=lambda r: r["seed"]) if r["seed"] in by_seed]
     div_new, div_old = (np.array([p[i]["diverged"] for p in pairs]) for i in (0, 1))
     fin_new, fin_old = (np.array([p[i]["curve"][-1] for p in pairs]) for i in (0, 1))
     p_div = 1.0 if np.all(div_new == div_old) else float(stats.wilcoxon(div_new, div_old).pvalue)
@@ -340,6 +341,15 @@ def paired_comparison(new: list[dict[str, Any]], old: list[dict[str, Any]], labe
             f"difference {_fmt(iqr(fin_new) - iqr(fin_old))} µm (bootstrap 95% interval {_fmt(low)} to "
             f"{_fmt(high)}); median {_fmt(float(np.median(fin_new)))} vs {_fmt(float(np.median(fin_old)))} µm "
             f"(Wilcoxon p = {_fmt(p_fin)}).\n")
+
+
+def _cpu_model() -> str:
+    """The processor's model name (Linux: /proc/cpuinfo), else its architecture."""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as info:
+            return next(line.split(":", 1)[1].strip() for line in info if line.startswith("model name"))
+    except (OSError, StopIteration):
+        return platform.machine()
 
 
 def _fmt(x: float) -> str:
@@ -358,7 +368,9 @@ def report(config: Config, results: list[dict[str, Any]], command: str, seconds:
            (f"{len(results)} runs in {seconds / 60:.1f} min on {config.workers} worker processes "
            f"({os.cpu_count()} cores; load average {load[0]:.1f} at start, {load[1]:.1f} at end; the machine is "
            f"shared, so times are upper bounds). Python {platform.python_version()}, optuna {optuna.__version__}, "
-           f"ioh {version('ioh')}, torch {torch.__version__}, numpy {np.__version__}.\n"),
+           f"ioh {version('ioh')}, torch {torch.__version__}, numpy {np.__version__}. CPU: {_cpu_model()}, torch "
+           f"kernels {torch.backends.cpu.get_cpu_capability()}; torch's results (the domain task, GP) repeat exactly "
+           f"for a seed on the same kind of CPU, not across instruction sets.\n"),
            f"Parts: {', '.join(config.parts)}. Budgets: N = {POPULATION_SIZE}"]
     if "bbob" in config.parts:
         out[-1] += (f"; {config.budget_mult}·N·D trials per BBOB study "

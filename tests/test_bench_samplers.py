@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 pytest.importorskip("ioh", reason="the benchmark extra (pip install -e .[bench]) provides ioh")
@@ -122,6 +123,16 @@ def test_paired_comparison_counts_divergence_and_brackets_the_iqr_difference():
     assert "8 paired seeds: diverged trials 4 vs 16 (runs with any: 4 vs 8;" in line
     low, high = map(float, re.search(r"bootstrap 95% interval (\S+) to (\S+)\)", line).groups())
     assert low <= 0.35 - 1.75 <= high and high < 0  # clearly narrower: the whole interval is below zero
+
+
+def test_paired_comparison_does_not_depend_on_the_order_runs_finished_in():
+    bench = _bench_module("bench_samplers")
+    rng = np.random.default_rng(3)
+    old = [{"seed": s, "diverged": int(rng.integers(3)), "curve": [9.0, float(rng.normal(2, 0.5))]} for s in range(12)]
+    new = [{"seed": s, "diverged": int(rng.integers(3)), "curve": [9.0, float(rng.normal(2, 0.3))]} for s in range(12)]
+    line = bench.paired_comparison(new, old)
+    for order in (rng.permutation(12) for _ in range(3)):
+        assert bench.paired_comparison([new[i] for i in order], [old[i] for i in rng.permutation(12)]) == line
 
 
 def test_overhead_script_prints_one_row_per_sampler(capsys):
