@@ -42,9 +42,9 @@ Statistics: median and IQR of the final regret per (function, D, sampler); Fried
 medians over the (function, D) cells, Wilcoxon signed-rank tests of every sampler against the best-ranked one
 over those cells with Holm's correction; the share of cells where a sampler's median regret is below Random's.
 
-Run ``python benchmarks/bench_samplers.py`` (24.7 min of CPU time per core on 2 cores; 33.6 min wall on a shared
-host that took 17-53% of the CPU; ``--quick`` for a smoke test, ``--parts domain`` for one part). It prints the
-markdown report and writes it to ``--out`` with the command that made it at the top.
+Run ``python benchmarks/bench_samplers.py`` (11.2 min on 2 otherwise idle cores of an AMD EPYC; 33.6 min on 2
+cores of a host that took 17-53% of the CPU; ``--quick`` for a smoke test, ``--parts domain`` for one part). It
+prints the markdown report and writes it to ``--out`` with the command that made it at the top.
 """
 
 from __future__ import annotations
