@@ -150,8 +150,8 @@ def test_the_third_party_model_comes_from_its_distribution():
 
 
 def test_loading_every_plugin_imports_neither_torch_nor_scipy_signal():
-    """Listing the plugins must not pay for the heavy imports that only training and simulation need (torch
-    ~2 s, scipy.signal ~1 s); the built-in bp, lptn, physics datasets and mechanisms all load here."""
+    """Listing the plugins must not pay for the imports that only training and simulation need (torch and
+    scipy.signal, seconds together); the built-in bp, lptn, physics datasets and mechanisms all load here."""
     code = ("import sys; from thermodrift.core import registry; reg = registry.default(); "
             "assert 'bp' in reg.names('model') and 'lptn' in reg.names('model'), reg.names('model'); "
             "assert not reg.failures, reg.failures; "
