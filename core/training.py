@@ -18,7 +18,10 @@ not pay for importing torch.
 
 Determinism: training runs under :func:`seeded`, which seeds torch and numpy from ``random_state`` and
 restores the callers' generator states afterwards. On CPU, equal seeds give bit-identical weights for a fixed
-``torch.get_num_threads()`` (left to the caller); CUDA kernels are not guaranteed deterministic.
+``torch.get_num_threads()`` (left to the caller) on the same kind of CPU: torch picks its kernels by instruction
+set (``torch.backends.cpu.get_cpu_capability()``), and kernels of another set round differently, so a search
+that reads the losses (which trials diverge, which is best) can take another path there. CUDA kernels are not
+guaranteed deterministic.
 """
 
 from __future__ import annotations
