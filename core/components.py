@@ -60,10 +60,19 @@ class ThermalModel(RegressorMixin, Component):
     for a physics model; rpm), then, for models that read the previous measured displacement (a reference, not
     a compensation model: ``uses_target_history``), columns ``lag1:<channel>`` in µm. ``study.model_inputs``
     builds it.
+
+    History and state, as a controller calls a model (the one contract of docs ``architecture.md``):
+    ``predict(X, history)`` takes the input rows that precede ``X`` (same columns; never targets) and
+    ``streamer(history).update(row)`` predicts one new row at a time, carrying its state; streaming over
+    consecutive rows equals the batch prediction with history. ``history_length`` says how many preceding rows a
+    prediction depends on: 0 (memoryless, the default: history is ignored), k, or ``None`` (the whole past: a
+    state). The base class handles all three by prediction over ``history + X``; a model whose state can be
+    carried more cheaply overrides :meth:`streamer`.
     """
 
     uses_target_history: ClassVar[bool] = False
     extra_input_roles: ClassVar[tuple[str, ...]] = ()
+    history_length: ClassVar[int | None] = 0
 
     def fit(self, X: pd.DataFrame, y: pd.DataFrame) -> "ThermalModel":
         y2 = _as_2d(y)
@@ -73,15 +82,62 @@ class ThermalModel(RegressorMixin, Component):
         self._fit(X, y2)
         return self
 
-    def predict(self, X: pd.DataFrame) -> np.ndarray:
-        out = np.asarray(self._predict(X), dtype=float)
-        return out.reshape(len(X), -1)
+    def predict(self, X: pd.DataFrame, history: pd.DataFrame | None = None) -> np.ndarray:
+        """Displacements (µm), shape (len(X), n_targets); ``history``: the input rows before ``X``."""
+        past = self._relevant_history(history)
+        if past is None or not len(past):
+            return np.asarray(self._predict(X), dtype=float).reshape(len(X), -1)
+        full = pd.concat([past[list(X.columns)], X])
+        full.attrs = dict(X.attrs)
+        out = np.asarray(self._predict(full), dtype=float).reshape(len(full), -1)
+        return out[len(past):]
+
+    def streamer(self, history: pd.DataFrame | None = None) -> "Streamer":
+        """A one-row-at-a-time predictor that starts after ``history`` (see :class:`Streamer`)."""
+        return Streamer(self, history)
+
+    def _relevant_history(self, history: pd.DataFrame | None) -> pd.DataFrame | None:
+        if history is None or self.history_length == 0:
+            return None
+        return history if self.history_length is None else history.iloc[-self.history_length:]
 
     def _fit(self, X: pd.DataFrame, y: np.ndarray) -> None:
         raise NotImplementedError
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         raise NotImplementedError
+
+
+class Streamer:
+    """Predicts one new input row per :meth:`update`, as a CNC controller calls a compensation model.
+
+    The generic form keeps the rows the model's ``history_length`` needs and predicts the newest row with them
+    as history, so it equals the batch prediction by construction; models with a cheaper state override
+    ``ThermalModel.streamer``.
+    """
+
+    def __init__(self, model: ThermalModel, history: pd.DataFrame | None = None):
+        self.model = model
+        self.columns = list(model.feature_names_in_)
+        past = model._relevant_history(history)
+        self._rows = [] if past is None else [r for r in past[self.columns].to_numpy(dtype=float)]
+        self._attrs = dict(history.attrs) if history is not None else {}
+
+    def update(self, row) -> np.ndarray:
+        """Displacement (µm) per target for one new input ``row`` (a mapping column -> value)."""
+        x = np.array([[float(row[c]) for c in self.columns]])
+        if self.model.history_length == 0:
+            return self.model.predict(self._frame(x))[0]
+        self._rows.append(x[0])
+        if self.model.history_length is not None:
+            del self._rows[:max(0, len(self._rows) - self.model.history_length - 1)]
+        frame = self._frame(np.asarray(self._rows))
+        return self.model.predict(frame.iloc[-1:], history=frame.iloc[:-1])[0]
+
+    def _frame(self, x: np.ndarray) -> pd.DataFrame:
+        frame = pd.DataFrame(x, columns=self.columns)
+        frame.attrs = dict(self._attrs)
+        return frame
 
 
 def _as_2d(y: pd.DataFrame | np.ndarray) -> np.ndarray:

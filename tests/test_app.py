@@ -3,7 +3,7 @@
 import pytest
 from hydra import compose, initialize_config_module
 
-from thermodrift.core.app import _split_flags, spec_from_config
+from thermodrift.core.cli.run import _split_flags, spec_from_config
 
 
 @pytest.fixture()

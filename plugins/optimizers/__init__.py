@@ -1,6 +1,6 @@
 """Built-in optimizer plugins, one module per method."""
 
-from thermodrift.plugins.optimizers._population import PopulationSampler
+from thermodrift.optimizers import PopulationSampler
 from thermodrift.plugins.optimizers.fa import FASampler
 from thermodrift.plugins.optimizers.gwo import GWOSampler
 from thermodrift.plugins.optimizers.pso import ConstrictionPSOSampler, PSOSampler

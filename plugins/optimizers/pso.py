@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.plugins.optimizers._population import Context, Move, PopulationSampler
+from thermodrift.optimizers import Context, Move, PopulationSampler
 
 
 class PSOSampler(PopulationSampler):

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.plugins.optimizers._population import Context, Member, Move, PopulationSampler, Population
+from thermodrift.optimizers import Context, Member, Move, PopulationSampler, Population
 
 EPSILON = 0.5  # probability of the small group p (Eqs. 3 and 5)
 

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.plugins.optimizers._population import Context, Member, Move, Population
+from thermodrift.optimizers import Context, Member, Move, Population
 from thermodrift.plugins.optimizers.rbmo import RBMOSampler
 
 

@@ -15,12 +15,12 @@ from thermodrift.core.errors import InputError, PluginError
 
 # verb -> (module, one-line help). `run` is the Hydra app and parses its own overrides.
 VERBS = {
-    "plugins": ("thermodrift.core.plugins_cmd", "List every registered component by kind with its origin."),
-    "validate": ("thermodrift.core.validate_cmd", "Check a recording (table + manifest) and print a summary."),
-    "run": ("thermodrift.core.app", "Run experiments (Hydra overrides; -m for a grid)."),
-    "simulate": ("thermodrift.core.physics.simulate_cmd", "Write a simulated recording (table + manifest + truth)."),
-    "calibrate": ("thermodrift.core.physics.calibrate_cmd", "Calibrate a thermal network to a recording."),
-    "bench": ("thermodrift.core.bench_cmd", "Run the benchmarks (samplers, physics)."),
+    "plugins": ("thermodrift.core.cli.plugins", "List every registered component by kind with its origin."),
+    "validate": ("thermodrift.core.cli.validate", "Check a recording (table + manifest) and print a summary."),
+    "run": ("thermodrift.core.cli.run", "Run experiments (Hydra overrides; -m for a grid)."),
+    "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
+    "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
+    "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
 }
 
 
@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
-        from thermodrift.core import app
+        from thermodrift.core.cli import run as app
         return _guard(lambda: app.main(argv[1:]))
     parser = argparse.ArgumentParser(prog="thermodrift", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
