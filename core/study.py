@@ -91,6 +91,7 @@ class FoldResult:
     study: optuna.Study | None = None
     trials_before: int = 0  # finished trials found in the storage before this run
     model: Any = None  # refit on this fold's training part
+    selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
 
 
 @dataclass
@@ -241,7 +242,8 @@ class Job:
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
                           {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selected),
-                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model)
+                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
+                          selector=selector)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")

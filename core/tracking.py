@@ -115,10 +115,31 @@ def log_result(result, params: dict[str, Any]) -> None:
         for fig_name, fig in figures(result).items():
             fig.savefig(tmp_path / fig_name, dpi=110, bbox_inches="tight")
             mlflow.log_artifact(str(tmp_path / fig_name), artifact_path="figures")
+        for k, fold in enumerate(result.folds, 1):
+            where = "selector" if len(result.folds) == 1 else f"selector/fold{k}"
+            for name, path in selector_report(getattr(fold, "selector", None), tmp_path / where).items():
+                mlflow.log_artifact(str(path), artifact_path=where)
     # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
     # refuses estimator classes it does not know, and every plugin model is one.
     mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
                              pip_requirements=["thermodrift"])
+
+
+def selector_report(selector, folder: Path) -> dict[str, Path]:
+    """Write a fitted selector's ``report_`` tables (CSV) and ``report_figures()`` (PNG) into ``folder``."""
+    tables = getattr(selector, "report_", None) or {}
+    draw = getattr(selector, "report_figures", None)
+    if not tables and draw is None:
+        return {}
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for name, table in tables.items():
+        out[name] = folder / f"{name}.csv"
+        table.to_csv(out[name], index=not isinstance(table.index, pd.RangeIndex))
+    for name, fig in (draw() if callable(draw) and tables else {}).items():
+        out[name] = folder / name
+        fig.savefig(out[name], dpi=110, bbox_inches="tight")
+    return out
 
 
 def comparison(result) -> pd.DataFrame:
