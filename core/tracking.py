@@ -102,6 +102,11 @@ def log_result(result, params: dict[str, Any]) -> None:
             for channel, per in result.folds[0].metrics[who].items():
                 if channel != "mean":
                     metrics.update({metric_key("test", channel, n): v for n, v in per.items()})
+    for k, fold in enumerate(result.folds, 1):  # per fold too, so a report can tell a protocol's blocks apart
+        mlflow.log_param(f"fold{k}/name", _short(fold.name))
+        for who, per in fold.metrics.items():
+            prefix = ("test",) if who == "model" else ("baseline", who, "test")
+            metrics.update({metric_key(f"fold{k}", *prefix, n): v for n, v in per["mean"].items()})
     for base in (w for w in result.folds[0].metrics if w != "model"):
         ref = metrics[metric_key("baseline", base, "test", "rmse")]
         if ref > 0:
@@ -222,6 +227,12 @@ class SweepRun(Callback):
                 path = Path(tmp) / "grid.csv"
                 pd.DataFrame(rows).to_csv(path, index=False)
                 client.log_artifact(parent, str(path))
+            from thermodrift.core import report
+
+            try:  # the studies' tables and the grid summary, under report/ on the parent run
+                report.log_to_parent(client, parent)
+            except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
+                client.set_tag(parent, "report_error", str(exc)[:500])
         client.set_terminated(parent)
 
 

@@ -21,6 +21,7 @@ VERBS = {
     "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
+    "report": ("thermodrift.core.cli.report", "The published studies' tables (S1 Table 7, S2) from a sweep in MLflow."),
 }
 
 
