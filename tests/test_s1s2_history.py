@@ -43,3 +43,35 @@ def test_transfer_function_streams_fast_and_exactly():
     np.testing.assert_allclose(streamed, batch, atol=1e-9)
     # the streamer carries its state instead of re-running the filters over the past (an O(1) update)
     assert not hasattr(stream, "_rows")
+
+
+def test_selector_search_space_is_tuned_jointly_on_inner_training_rows(monkeypatch):
+    from thermodrift.core import registry, splits
+    from thermodrift.plugins.selectors.correlation_top_k import CorrelationTopK
+
+    seen = []
+
+    class Noting(CorrelationTopK):
+        def _select(self, X, y):
+            seen.append((self.k, set(X.index)))
+            return super()._select(X, y)
+
+    reg = registry.load()
+    reg._origin = reg._module = "tests"
+    reg.add("selector", "noting_top_k", Noting)
+    monkeypatch.setattr(registry, "_DEFAULT", reg)
+    rec = tiny_recording()
+    spec = JobSpec(dataset="tiny", model="mlr", selector="noting_top_k", optimizer="random", split="chronological",
+                   n_trials=6, storage=None, progress=False, baselines=(),
+                   selector_search_space={"k": {"type": "int", "low": 1, "high": 4}})
+    result = Job(spec).run(recording=rec)
+    fold = splits.make_split("chronological").folds(rec)[0]
+    inner = splits.inner_fold(rec.select(fold.train))
+    times = rec.data.index.to_numpy()
+    inner_train = set(times[fold.train[inner.train]])
+    per_trial = seen[1:-1]  # the first fit uses the defaults on the training part, the last refits the best
+    assert len(per_trial) == 6 and {k for k, _ in per_trial} != {4}  # k varies across trials
+    assert all(rows == inner_train for _, rows in per_trial)  # each trial selects on inner training rows only
+    study = result.study
+    assert seen[-1][0] == study.best_params["selector.k"] and seen[-1][1] == set(times[fold.train])
+    assert 1 <= len(result.selected) <= study.best_params["selector.k"]
