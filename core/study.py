@@ -102,6 +102,7 @@ class JobResult:
     folds: list[FoldResult]
     protocol: str
     notes: list[str] = field(default_factory=list)
+    recording: Any = None  # the recording the job ran on
 
     @property
     def study(self) -> optuna.Study | None:
@@ -124,10 +125,22 @@ class JobResult:
         """Mean over folds of the inner validation RMSE (µm): what a sweep over jobs may minimise."""
         return float(np.mean([f.valid_rmse for f in self.folds]))
 
-    def summary_metrics(self, who: str = "model") -> dict[str, float]:
-        """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
-        names = self.folds[0].metrics[who]["mean"].keys()
-        return {m: float(np.mean([f.metrics[who]["mean"][m] for f in self.folds])) for m in names}
+    def summary_metrics(self, who: str = "model", channel: str = "mean") -> dict[str, float]:
+        """Mean over folds of the metrics of ``who`` ("model" or a baseline name) on ``channel`` (a target, or
+        "mean": the mean over targets)."""
+        names = self.folds[0].metrics[who][channel].keys()
+        return {m: float(np.mean([f.metrics[who][channel][m] for f in self.folds])) for m in names}
+
+    @property
+    def targets(self) -> list[str]:
+        return list(self.folds[0].y_true.columns)
+
+    def same_as(self) -> str | None:
+        """The baseline whose held-out predictions equal the model's on every fold (to 1e-9 µm), if any."""
+        for base in self.spec.baselines:
+            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=1e-9) for f in self.folds):
+                return base
+        return None
 
 
 class Job:
@@ -163,7 +176,8 @@ class Job:
         for k, fold in enumerate(folds, 1):
             name = base if len(folds) == 1 else f"{base}-fold{k}of{len(folds)}"
             results.append(self._fold(recording, fold, features, targets, space, name))
-        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])))
+        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])),
+                         recording=recording)
 
     def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
               study_name: str) -> FoldResult:
