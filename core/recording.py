@@ -442,7 +442,7 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise InputError("manifest file not found", file=file,
-                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml") from None
+                         hint="check the path of the YAML manifest that gives every column a role") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the manifest ({type(exc).__name__})", file=file,
                          hint="the manifest must be a UTF-8 YAML file") from None

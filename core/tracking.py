@@ -123,7 +123,7 @@ def log_result(result, params: dict[str, Any]) -> None:
     """Log a :class:`~thermodrift.core.study.JobResult` into the active run: config params, the recording as a
     dataset input, the Optuna studies (tags ``optuna.study``, ``optuna.storage``), held-out metrics of the model
     and baselines (mean over targets and per target), figures and the last fold's refit model."""
-    mlflow.log_params({k: _short(v) for k, v in _flatten(params).items()})
+    mlflow.log_params({k: _short(v) for k, v in flatten(params).items()})
     mlflow.log_param("selected_sensors", ",".join(result.selected))
     studies = [f.study.study_name for f in result.folds if f.study is not None]
     mlflow.set_tags({"targets": ",".join(metric_key(t) for t in result.targets),
@@ -305,12 +305,13 @@ def _label(result, who: str) -> str:
     return f"model: {result.spec.model}" if who == "model" else who
 
 
-def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
+def flatten(d: dict, prefix: str = "") -> dict[str, Any]:
+    """A nested dict as one level with dotted keys (``{"a": {"b": 1}}`` -> ``{"a.b": 1}``)."""
     out: dict[str, Any] = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
         if isinstance(v, dict):
-            out.update(_flatten(v, key + "."))
+            out.update(flatten(v, key + "."))
         else:
             out[key] = v
     return out

@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -150,6 +151,24 @@ def test_bad_input_is_one_line_and_exit_2(workdir):
     assert len(lines) == 1 and "nope.csv" in lines[0]
     bad_target = thermodrift(workdir, "run", *TINY, "targets=[T_column]")
     assert bad_target.returncode == 2 and "T_column" in bad_target.stderr and "Traceback" not in bad_target.stderr
+
+
+def test_missing_recording_file_and_verb_errors_are_one_clean_line(workdir):
+    out = thermodrift(workdir, "run", "dataset=recording_file")
+    assert out.returncode == 2 and "???" not in out.stderr and "--manifest" not in out.stderr
+    assert out.stderr.strip().splitlines() == [
+        "thermodrift: error: dataset.params.table, dataset.params.manifest have no value: add "
+        "dataset.params.table=<value> dataset.params.manifest=<value> to the command"]
+    no_manifest = thermodrift(workdir, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
+                              "dataset.params.manifest=nope.yaml")
+    assert no_manifest.returncode == 2 and "nope.yaml" in no_manifest.stderr
+    assert "--manifest" not in no_manifest.stderr
+    for verb in (["simulate", "--hours", "-1", "--out", "sim"], ["calibrate", "tiny.csv", "--manifest", "nope.yaml"]):
+        out = thermodrift(workdir, *verb)
+        # a terminal shows each \r- or \n-separated piece from the line start: the error has a piece to itself
+        pieces = [p.strip() for p in re.split(r"[\r\n]", out.stderr) if p.strip()]
+        assert out.returncode == 2 and pieces[-1].startswith("thermodrift: error:"), (verb, out.stderr)
+        assert not any("%|" in p and "error" in p for p in pieces)
 
 
 def _complete_trials(db: Path) -> list[tuple[int, float]]:

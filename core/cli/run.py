@@ -19,6 +19,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from thermodrift.core import registry, tracking
+from thermodrift.core.cli import error_line
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -41,7 +42,12 @@ class Lifecycle(tracking.SweepRun):
 
 
 def spec_from_config(cfg: DictConfig) -> JobSpec:
-    """The :class:`JobSpec` of a composed config."""
+    """The :class:`JobSpec` of a composed config; InputError naming every value the command line must give."""
+    unset = OmegaConf.missing_keys(cfg)
+    missing = [k for k in tracking.flatten(OmegaConf.to_container(cfg)) if k in unset]  # in config order
+    if missing:
+        raise InputError(f"{', '.join(missing)} {'has' if len(missing) == 1 else 'have'} no value: add "
+                         f"{' '.join(f'{k}=<value>' for k in missing)} to the command")
     c = OmegaConf.to_container(cfg, resolve=True)
     # The top-level ``search_space`` replaces the model's (Hydra merges a dict given to ``model.search_space``).
     space = c["search_space"] if c.get("search_space") is not None else c["model"].get("search_space")
@@ -118,7 +124,7 @@ def job_report(result, run, uri: str) -> str:
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
     """One line on stderr; a single run exits 2, a grid job is recorded as failed and the grid goes on."""
-    print(f"thermodrift: error: {exc}", file=sys.stderr)
+    error_line(f"thermodrift: error: {exc}")
     if not multirun:
         raise SystemExit(2)
     return None
