@@ -60,7 +60,7 @@ class JobSpec:
     input_roles: tuple[str, ...] = INPUT_ROLES
     baselines: tuple[str, ...] = ("persistence", "mlr")
     seed: int = 0
-    n_trials: int = 20
+    n_trials: int = 20  # per fold's study; 0: no study, the model runs untuned on model_params
     timeout_s: float | None = None
     storage: str | None = "sqlite:///optuna.db"
     study_name: str | None = None
@@ -231,7 +231,7 @@ class Job:
             budget = 1 if not space else spec.n_trials
             if done:
                 complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-                self.say(f"study {study_name} resumed: {complete} of {budget} trials complete"
+                self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
                          f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
                          f"{max(0, budget - done)} to run")
             if done < budget:
