@@ -309,23 +309,23 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
 
 def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarray | None = None) -> np.ndarray:
     """``model``'s predictions (µm) for ``rows`` (sorted positions into ``frame``, the model's inputs for every row
-    of the recording). A model with history gets, for each contiguous block of ``rows``, the input rows just
-    before the block as ``history``: every earlier row, or, with ``allowed``, the unbroken run of ``allowed``
-    rows that ends just before the block."""
+    of the recording). A model with history predicts with the input rows before ``rows`` as ``history``: every
+    earlier row (one prediction over the span from the first to the last of ``rows``: inputs only), or, with
+    ``allowed``, per contiguous block of ``rows`` the unbroken run of ``allowed`` rows that ends just before it."""
     if getattr(model, "history_length", 0) == 0:
         return model.predict(frame.iloc[rows])
-    ok = None
-    if allowed is not None:
-        ok = np.zeros(len(frame), dtype=bool)
-        ok[allowed] = True
+    if allowed is None:
+        first = int(rows[0])
+        pred = model.predict(frame.iloc[first:int(rows[-1]) + 1], history=frame.iloc[:first])
+        return pred[rows - first]
+    ok = np.zeros(len(frame), dtype=bool)
+    ok[allowed] = True
     out = []
     for block in np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1):
         start = int(block[0])
-        first = 0
-        if ok is not None:
-            gaps = np.flatnonzero(~ok[:start])
-            first = int(gaps[-1]) + 1 if len(gaps) else 0
-        out.append(model.predict(frame.iloc[block], history=frame.iloc[first:start]))
+        gaps = np.flatnonzero(~ok[:start])
+        begin = int(gaps[-1]) + 1 if len(gaps) else 0
+        out.append(model.predict(frame.iloc[block], history=frame.iloc[begin:start]))
     return np.concatenate(out)
 
 
