@@ -135,10 +135,12 @@ class JobResult:
     def targets(self) -> list[str]:
         return list(self.folds[0].y_true.columns)
 
-    def same_as(self) -> str | None:
-        """The baseline whose held-out predictions equal the model's on every fold (to 1e-9 µm), if any."""
+    def same_as(self, atol_um: float = 1e-3) -> str | None:
+        """The baseline whose held-out predictions equal the model's on every row of every fold to ``atol_um``
+        (default 0.001 µm, the precision the metrics are printed with), if any."""
         for base in self.spec.baselines:
-            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=1e-9) for f in self.folds):
+            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=atol_um)
+                   for f in self.folds):
                 return base
         return None
 

@@ -87,6 +87,8 @@ def test_a_model_without_search_space_runs_one_trial(reg, rec):
     result = Job(spec(model="persistence", n_trials=10)).run(rec)
     assert len(result.study.trials) == 1
     np.testing.assert_allclose(result.summary_metrics("model")["rmse"], result.summary_metrics("persistence")["rmse"])
+    assert result.same_as() == "persistence"
+    assert Job(spec(n_trials=0, model_params={"alpha": 100.0})).run(rec).same_as() is None
 
 
 @pytest.mark.parametrize("optimizer", ["pso", "pso_constriction", "rbmox"])

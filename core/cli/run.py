@@ -112,7 +112,7 @@ def job_report(result, run, uri: str) -> str:
              table.to_string(float_format="%.3f")]
     same = result.same_as()
     if same:
-        lines.append(f"note: the model's held-out predictions equal the {same} baseline's")
+        lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 µm)")
     names = dict.fromkeys(result.spec.model if who == "model" else who for who in result.folds[0].metrics)
     for name in (n for n in names if getattr(registry.get("model", n).factory, "uses_target_history", False)):
         lines.append(f"{name} reads the measured target of the previous sample: a reference, not a compensation "
