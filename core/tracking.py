@@ -253,7 +253,8 @@ class SweepRun(Callback):
     The parent's id reaches the jobs (also joblib worker processes) through ``THERMODRIFT_PARENT_RUN_ID``.
     At the end the terminal gets one table of every job (:mod:`thermodrift.core.report_table`) and the parent
     run's id; the parent gets a ``grid.csv`` of every child's metrics and the metrics, params and ``best_run_id``
-    of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores).
+    of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores)
+    among the compensation models (a job tagged ``reference``, such as persistence, only when all are).
     """
 
     def on_multirun_start(self, config, **kwargs) -> None:
@@ -281,7 +282,8 @@ class SweepRun(Callback):
                 pd.DataFrame(rows).to_csv(path, index=False)
                 client.log_artifact(parent, str(path))
         finished = [c for c in children if c.info.status == "FINISHED" and "valid/best_rmse" in c.data.metrics]
-        best = min(finished, key=lambda c: c.data.metrics["valid/best_rmse"]) if finished else None
+        models = [c for c in finished if "reference" not in c.data.tags] or finished  # compensation models first
+        best = min(models, key=lambda c: c.data.metrics["valid/best_rmse"]) if models else None
         if best is not None:
             stamp = int(time.time() * 1000)
             metrics = [Metric(k, v, stamp, 0) for k, v in best.data.metrics.items()

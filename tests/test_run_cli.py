@@ -103,8 +103,9 @@ def test_parallel_grid_makes_one_parent_and_tagged_children(workdir):
     assert {"disp_z_um", "disp_x_um", "mlr", "persistence", "wall_s"} <= set(header)
     assert sum(ln.startswith("tiny.csv") for ln in lines[head + 2:head + 6]) == 4
     assert f"parent MLflow run {parent.info.run_id}" in out.stdout
-    # the parent carries the best job's (by validation RMSE) metrics and params
-    best = min(children, key=lambda c: c.data.metrics["valid/best_rmse"])
+    # the parent carries the best compensation model's (by validation RMSE) metrics and params
+    assert {c.data.tags["model"] for c in children if "reference" in c.data.tags} == {"persistence"}
+    best = min((c for c in children if c.data.tags["model"] == "mlr"), key=lambda c: c.data.metrics["valid/best_rmse"])
     assert parent.data.tags["best_run_id"] == best.info.run_id
     assert parent.data.metrics["test/rmse"] == best.data.metrics["test/rmse"]
     assert parent.data.params["model.name"] == best.data.tags["model"]

@@ -77,6 +77,8 @@ def _task(cfg: DictConfig) -> float | None:
              "optimizer": spec.optimizer, "split": spec.split}
     run_name = tracking.run_name(spec)
     tags = {**tracking.job_tags(names, cfg.ablation, "pending"), "recording": run_name.split(" · ")[0]}
+    if getattr(registry.get("model", spec.model).factory, "uses_target_history", False):
+        tags["reference"] = "reads the measured target"  # not a compensation model: never a grid's best job
     with tracking.start_job_run(run_name, tags) as run:
         logger = tracking.TrialLogger(run.info.run_id)
         try:
