@@ -60,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
             machine = registry.get("dataset", name).factory
             if not hasattr(machine, "generate"):
                 raise InputError(f"dataset {name!r} is not a simulated machine",
-                                 hint="use one of demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3")
+                                 hint="use one of demo_spindle, turning_centre_s1, vmc_spindle_s2, "
+                                      "motorized_spindle_s3")
             network = load_network(machine.name)
             scen_name = args.scenario or machine.scenario
             dt = args.dt or (machine.dt_s if scen_name == machine.scenario else None)
@@ -78,7 +79,8 @@ def run(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         stem = f"{name}_seed{args.seed}"
-        table, manifest, truth = out / f"{stem}.{args.format}", out / f"{stem}.manifest.yaml", out / f"{stem}.truth.json"
+        table, manifest = out / f"{stem}.{args.format}", out / f"{stem}.manifest.yaml"
+        truth = out / f"{stem}.truth.json"
         steps.set_description("simulate: writing")
         synthetic.recording.write(table, manifest)
         truth.write_text(json.dumps(synthetic.truth, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
