@@ -467,7 +467,7 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
     file = str(path)
     if not Path(path).exists():
         raise InputError("manifest file not found", file=file,
-                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml")
+                         hint="check the path of the YAML manifest that gives every column a role")
     limits.check_manifest_file(Path(path))
     try:
         text = Path(path).read_text(encoding="utf-8")

@@ -60,7 +60,7 @@ class JobSpec:
     input_roles: tuple[str, ...] = INPUT_ROLES
     baselines: tuple[str, ...] = ("persistence", "mlr")
     seed: int = 0
-    n_trials: int = 20
+    n_trials: int = 20  # per fold's study; 0: no study, the model runs untuned on model_params
     timeout_s: float | None = None
     storage: str | None = "sqlite:///optuna.db"
     study_name: str | None = None
@@ -102,6 +102,7 @@ class JobResult:
     folds: list[FoldResult]
     protocol: str
     notes: list[str] = field(default_factory=list)
+    recording: Any = None  # the recording the job ran on
 
     @property
     def study(self) -> optuna.Study | None:
@@ -124,10 +125,24 @@ class JobResult:
         """Mean over folds of the inner validation RMSE (µm): what a sweep over jobs may minimise."""
         return float(np.mean([f.valid_rmse for f in self.folds]))
 
-    def summary_metrics(self, who: str = "model") -> dict[str, float]:
-        """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
-        names = self.folds[0].metrics[who]["mean"].keys()
-        return {m: float(np.mean([f.metrics[who]["mean"][m] for f in self.folds])) for m in names}
+    def summary_metrics(self, who: str = "model", channel: str = "mean") -> dict[str, float]:
+        """Mean over folds of the metrics of ``who`` ("model" or a baseline name) on ``channel`` (a target, or
+        "mean": the mean over targets)."""
+        names = self.folds[0].metrics[who][channel].keys()
+        return {m: float(np.mean([f.metrics[who][channel][m] for f in self.folds])) for m in names}
+
+    @property
+    def targets(self) -> list[str]:
+        return list(self.folds[0].y_true.columns)
+
+    def same_as(self, atol_um: float = 1e-3) -> str | None:
+        """The baseline whose held-out predictions equal the model's on every row of every fold to ``atol_um``
+        (default 0.001 µm, the precision the metrics are printed with), if any."""
+        for base in self.spec.baselines:
+            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=atol_um)
+                   for f in self.folds):
+                return base
+        return None
 
 
 class Job:
@@ -163,7 +178,8 @@ class Job:
         for k, fold in enumerate(folds, 1):
             name = base if len(folds) == 1 else f"{base}-fold{k}of{len(folds)}"
             results.append(self._fold(recording, fold, features, targets, space, name))
-        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])))
+        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])),
+                         recording=recording)
 
     def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
               study_name: str) -> FoldResult:
@@ -217,7 +233,7 @@ class Job:
             budget = 1 if not space else spec.n_trials
             if done:
                 complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-                self.say(f"study {study_name} resumed: {complete} of {budget} trials complete"
+                self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
                          f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
                          f"{max(0, budget - done)} to run")
             if done < budget:
@@ -295,23 +311,23 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
 
 def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarray | None = None) -> np.ndarray:
     """``model``'s predictions (µm) for ``rows`` (sorted positions into ``frame``, the model's inputs for every row
-    of the recording). A model with history gets, for each contiguous block of ``rows``, the input rows just
-    before the block as ``history``: every earlier row, or, with ``allowed``, the unbroken run of ``allowed``
-    rows that ends just before the block."""
+    of the recording). A model with history predicts with the input rows before ``rows`` as ``history``: every
+    earlier row (one prediction over the span from the first to the last of ``rows``: inputs only), or, with
+    ``allowed``, per contiguous block of ``rows`` the unbroken run of ``allowed`` rows that ends just before it."""
     if getattr(model, "history_length", 0) == 0:
         return model.predict(frame.iloc[rows])
-    ok = None
-    if allowed is not None:
-        ok = np.zeros(len(frame), dtype=bool)
-        ok[allowed] = True
+    if allowed is None:
+        first = int(rows[0])
+        pred = model.predict(frame.iloc[first:int(rows[-1]) + 1], history=frame.iloc[:first])
+        return pred[rows - first]
+    ok = np.zeros(len(frame), dtype=bool)
+    ok[allowed] = True
     out = []
     for block in np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1):
         start = int(block[0])
-        first = 0
-        if ok is not None:
-            gaps = np.flatnonzero(~ok[:start])
-            first = int(gaps[-1]) + 1 if len(gaps) else 0
-        out.append(model.predict(frame.iloc[block], history=frame.iloc[first:start]))
+        gaps = np.flatnonzero(~ok[:start])
+        begin = int(gaps[-1]) + 1 if len(gaps) else 0
+        out.append(model.predict(frame.iloc[block], history=frame.iloc[begin:start]))
     return np.concatenate(out)
 
 

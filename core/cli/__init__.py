@@ -53,11 +53,21 @@ def _guard(fn) -> int:
     try:
         return int(fn() or 0)
     except (InputError, PluginError) as exc:
-        print(f"thermodrift: error: {exc}", file=sys.stderr)
+        error_line(f"thermodrift: error: {exc}")
         return 2
     except KeyboardInterrupt:
         print("thermodrift: interrupted; completed trials are kept in the Optuna storage", file=sys.stderr)
         return 130
+
+
+def error_line(text: str) -> None:
+    """``text`` on stderr on a line of its own, also while a progress bar is still drawn there."""
+    if "tqdm" in sys.modules:
+        from tqdm import tqdm
+
+        tqdm.write(text, file=sys.stderr)
+    else:
+        print(text, file=sys.stderr)
 
 
 if __name__ == "__main__":

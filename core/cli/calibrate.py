@@ -54,33 +54,34 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--level must be in (0, 1), got {args.level}")
     if args.hidden_nodes < 0:
         raise InputError("--hidden-nodes must be ≥ 0")
-    steps = tqdm(total=4, desc="calibrate: loading", unit="step", disable=args.no_progress, leave=False)
-    recording = load_recording(args.table, args.manifest)
-    network = None if args.network == "auto" else load_network(args.network)
-    steps.update()
-    steps.set_description("calibrate: fitting")
-    result = cal.calibrate(recording, network, free=args.free, targets=args.targets,
-                           hidden_nodes=args.hidden_nodes, max_seconds=args.max_seconds, level=args.level,
-                           progress=not args.no_progress)
-    steps.update()
-    steps.set_description("calibrate: mismatch map")
-    mm = mismatch.mismatch_map(result)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "calibration.json").write_text(json.dumps(result.to_dict(), indent=1, ensure_ascii=False) + "\n",
-                                          encoding="utf-8")
-    (out / "calibrated_network.yaml").write_text(
-        yaml.safe_dump(network_to_dict(result.network), allow_unicode=True, sort_keys=False), encoding="utf-8")
-    (out / "mismatch.json").write_text(json.dumps(mm.to_dict(), indent=1, ensure_ascii=False) + "\n",
-                                       encoding="utf-8")
-    mismatch.plot_heatmap(mm, out / "mismatch_heatmap.png", speed=(result.time_s, result.speed_rpm))
-    mismatch.plot_before_after(result, out / "before_after.png", mm)
-    steps.update()
-    if args.tracking_uri:
-        steps.set_description("calibrate: logging")
-        mismatch.log_to_mlflow(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
-    steps.update()
-    steps.close()
+    # The bar is closed (cleared) on any exit, so an error prints on a line of its own.
+    with tqdm(total=4, desc="calibrate: loading", unit="step", disable=args.no_progress,
+              leave=False) as steps:
+        recording = load_recording(args.table, args.manifest)
+        network = None if args.network == "auto" else load_network(args.network)
+        steps.update()
+        steps.set_description("calibrate: fitting")
+        result = cal.calibrate(recording, network, free=args.free, targets=args.targets,
+                               hidden_nodes=args.hidden_nodes, max_seconds=args.max_seconds, level=args.level,
+                               progress=not args.no_progress)
+        steps.update()
+        steps.set_description("calibrate: mismatch map")
+        mm = mismatch.mismatch_map(result)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "calibration.json").write_text(json.dumps(result.to_dict(), indent=1, ensure_ascii=False) + "\n",
+                                              encoding="utf-8")
+        (out / "calibrated_network.yaml").write_text(
+            yaml.safe_dump(network_to_dict(result.network), allow_unicode=True, sort_keys=False), encoding="utf-8")
+        (out / "mismatch.json").write_text(json.dumps(mm.to_dict(), indent=1, ensure_ascii=False) + "\n",
+                                           encoding="utf-8")
+        mismatch.plot_heatmap(mm, out / "mismatch_heatmap.png", speed=(result.time_s, result.speed_rpm))
+        mismatch.plot_before_after(result, out / "before_after.png", mm)
+        steps.update()
+        if args.tracking_uri:
+            steps.set_description("calibrate: logging")
+            mismatch.log_to_mlflow(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
+        steps.update()
     _print_summary(result, mm, out)
     return 0
 

@@ -21,6 +21,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from thermodrift.core import configs, registry, tracking
+from thermodrift.core.cli import error_line
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -43,13 +44,20 @@ class Lifecycle(tracking.SweepRun):
 
 
 def spec_from_config(cfg: DictConfig) -> JobSpec:
-    """The :class:`JobSpec` of a composed config."""
+    """The :class:`JobSpec` of a composed config; InputError naming every value the command line must give."""
+    unset = OmegaConf.missing_keys(cfg)
+    missing = [k for k in tracking.flatten(OmegaConf.to_container(cfg)) if k in unset]  # in config order
+    if missing:
+        raise InputError(f"{', '.join(missing)} {'has' if len(missing) == 1 else 'have'} no value: add "
+                         f"{' '.join(f'{k}=<value>' for k in missing)} to the command")
     c = OmegaConf.to_container(cfg, resolve=True)
+    # The top-level ``search_space`` replaces the model's (Hydra merges a dict given to ``model.search_space``).
+    space = c["search_space"] if c.get("search_space") is not None else c["model"].get("search_space")
     return JobSpec(
         dataset=c["dataset"]["name"], dataset_params=c["dataset"].get("params") or {},
         selector=c["selector"]["name"], selector_params=c["selector"].get("params") or {},
         model=c["model"]["name"], model_params=c["model"].get("params") or {},
-        model_search_space=c["model"].get("search_space"),
+        model_search_space=space,
         optimizer=c["optimizer"]["name"], optimizer_params=c["optimizer"].get("params") or {},
         split=c["split"]["kind"], split_params=c["split"].get("params") or {},
         targets=c.get("targets"), input_roles=tuple(c["input_roles"]), baselines=tuple(c["baselines"]),
@@ -69,26 +77,58 @@ def _task(cfg: DictConfig) -> float | None:
     tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
     names = {"dataset": spec.dataset, "selector": spec.selector, "model": spec.model,
              "optimizer": spec.optimizer, "split": spec.split}
-    run_name = f"{spec.model} · {spec.optimizer} · {spec.selector} · {spec.dataset} · {spec.split}"
-    with tracking.start_job_run(run_name, tracking.job_tags(names, cfg.ablation, "pending")) as run:
+    run_name = tracking.run_name(spec)
+    tags = {**tracking.job_tags(names, cfg.ablation, "pending"), "recording": run_name.split(" · ")[0]}
+    if getattr(registry.get("model", spec.model).factory, "uses_target_history", False):
+        tags["reference"] = "reads the measured target"  # not a compensation model: never a grid's best job
+    with tracking.start_job_run(run_name, tags) as run:
+        logger = tracking.TrialLogger(run.info.run_id)
         try:
-            result = Job(spec, callbacks=[tracking.TrialLogger(run.info.run_id)]).run()
+            result = Job(spec, callbacks=[logger], say=lambda line: print(line, flush=True)).run()
         except (InputError, PluginError) as exc:
             mlflow.set_tag("error", str(exc)[:5000])
             mlflow.end_run(status="FAILED")
             return _bad_input(exc, multirun)
+        for fold in result.folds:  # a resumed study's stored trials, so the run has every trial's curve
+            if fold.study is not None and fold.trials_before:
+                logger.replay(fold.study, fold.trials_before)
         mlflow.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
-    table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
-    print(f"\n{run_name}\nselected sensors: {', '.join(result.selected)}\n"
-          f"held-out ({'; '.join(f.name for f in result.folds)}), µm:\n{table.to_string(float_format='%.3f')}\n"
-          f"MLflow run {run.info.run_id} at {cfg.tracking.uri}")
+    print(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI), flush=True)
     return result.valid_rmse
+
+
+def job_report(result, run, uri: str) -> str:
+    """What a person reads after a job: targets, selection, held-out metrics beside the baselines, what
+    persistence is, where the figures are."""
+    table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
+    for target in result.targets:
+        table[f"rmse {target}"] = [result.summary_metrics(who, target)["rmse"] for who in result.folds[0].metrics]
+    params = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in result.best_params.items())
+    tuned = ("untuned (n_trials=0), on its defaults" if result.study is None
+             else f"tuned{' (last fold)' if len(result.folds) > 1 else ''}: {params or 'nothing to tune'}")
+    lines = [f"\n{tracking.run_name(result.spec)}  [{result.protocol} protocol]",
+             f"targets (µm): {', '.join(result.targets)}",
+             f"selected sensors{' (last fold)' if len(result.folds) > 1 else ''}: {', '.join(result.selected)}",
+             f"model {result.spec.model} {tuned}",
+             f"held-out ({'; '.join(f.name for f in result.folds)}), µm, mean over "
+             f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
+             table.to_string(float_format="%.3f")]
+    same = result.same_as()
+    if same:
+        lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 µm)")
+    names = dict.fromkeys(result.spec.model if who == "model" else who for who in result.folds[0].metrics)
+    for name in (n for n in names if getattr(registry.get("model", n).factory, "uses_target_history", False)):
+        lines.append(f"{name} reads the measured target of the previous sample: a reference, not a compensation "
+                     "model")
+    lines.append(f"figures: {run.info.artifact_uri}/{tracking.FIGURES}/")
+    lines.append(f"MLflow run {run.info.run_id} at {uri}")
+    return "\n".join(lines)
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
     """One line on stderr; a single run exits 2, a grid job is recorded as failed and the grid goes on."""
-    print(f"thermodrift: error: {exc}", file=sys.stderr)
+    error_line(f"thermodrift: error: {exc}")
     if not multirun:
         raise SystemExit(2)
     return None
