@@ -9,6 +9,7 @@ Hydra reads the store after every file source, but a YAML and a stored node of o
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.resources
 import inspect
 from pathlib import Path
@@ -34,6 +35,9 @@ def node(component: Component) -> dict[str, Any]:
         if (p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and p.default is not p.empty
                 and not (component.kind == "optimizer" and pname in ("seed", "n_trials")) and _plain(p.default)):
             params[pname] = list(p.default) if isinstance(p.default, tuple) else p.default
+    trainer_defaults = getattr(component.factory, "trainer_defaults", None)  # torch models' TrainerSettings
+    if "trainer" in params and dataclasses.is_dataclass(trainer_defaults):
+        params["trainer"] = dataclasses.asdict(trainer_defaults)  # so `model.params.trainer.epochs=50` works
     cfg: dict[str, Any] = {"name": component.name, "params": params}
     if component.kind == "model":
         space = getattr(component.factory, "search_space", None)

@@ -91,7 +91,7 @@ class Registry:
         factory = self.get(kind, name).factory
         if kind == "optimizer" and "seed" in params and not accepts(factory, "seed"):
             raise PluginError(f"optimizer {name!r} factory does not accept a seed")
-        return factory(**params)
+        return build(factory, params)
 
     def _of(self, kind: str) -> dict[str, Component]:
         if kind not in KINDS:
@@ -106,6 +106,14 @@ def accepts(factory: Callable[..., Any], param: str) -> bool:
     except (TypeError, ValueError):
         return True
     return param in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+
+
+def build(factory: Callable[..., Any], params: dict[str, Any]) -> Any:
+    """``factory(**params)``, where scikit-learn's nested names (``trainer__lr_max``) are set afterwards
+    through the built object's ``set_params``, so a search space can tune a component's nested settings."""
+    nested = {k: v for k, v in params.items() if "__" in k}
+    built = factory(**{k: v for k, v in params.items() if k not in nested})
+    return built.set_params(**nested) if nested else built
 
 
 def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Registry:
