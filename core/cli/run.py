@@ -121,11 +121,9 @@ def main(overrides: list[str]) -> int:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
-    # Hydra's plugin scan misses our sweeper under a lenient editable install; registering it is idempotent.
-    from hydra_plugins.thermodrift_sweeper import register
-
-    register()
     reg = registry.default()
+    for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
+        register()
     configs.store(reg)
     extra = []
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
