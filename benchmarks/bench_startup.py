@@ -2,8 +2,10 @@
 
 Each command runs ``--repeats`` times in a new Python process (wall seconds, median and minimum); the rows
 share one run, so the ratios hold on a busy machine too. ``registry.default()`` loads every installed plugin
-(selectors, models, optimizers, datasets, mechanisms); ``thermodrift plugins`` adds the listing itself.
-The last column names the heavy modules the process ended up importing.
+(selectors, models, optimizers, datasets, mechanisms); ``thermodrift plugins`` adds the listing itself;
+``thermodrift run --help`` adds the shipped YAML files and ``conf/config.yaml`` (its target: under 3 s on an
+idle machine, without importing Hydra, MLflow or torch). The last column names the heavy modules the process
+ended up importing; the first line the machine's load average, since a busy machine stretches every row.
 
     python benchmarks/bench_startup.py            # or: thermodrift bench startup
     python benchmarks/bench_startup.py --repeats 10
@@ -25,6 +27,7 @@ COMMANDS = {
     "import thermodrift.core": "import thermodrift.core",
     "registry.default()": "from thermodrift.core import registry; registry.default()",
     "thermodrift plugins": "from thermodrift.core.cli import main; main(['plugins'])",
+    "thermodrift run --help": "from thermodrift.core.cli import main; main(['run', '--help'])",
     "import torch": "import torch",
     "import scipy.signal": "import scipy.signal",
 }
@@ -45,7 +48,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     timed("pass")  # warm the file cache once
     rows = {name: [timed(code) for _ in range(args.repeats)] for name, code in COMMANDS.items()}
-    print(f"fresh-process wall seconds, {args.repeats} repeats (Python {sys.version.split()[0]})")
+    load = " ".join(f"{x:.1f}" for x in os.getloadavg())
+    print(f"fresh-process wall seconds, {args.repeats} repeats (Python {sys.version.split()[0]}, "
+          f"{os.cpu_count()} CPUs, load average {load})")
     print("| command | median s | min s | heavy modules imported |\n|---|---|---|---|")
     for name, runs in rows.items():
         seconds = [s for s, _ in runs]

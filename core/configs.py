@@ -55,20 +55,24 @@ def _plain(value: Any) -> bool:
     return False
 
 
-def has_yaml(searchpaths: list[str], group: str, name: str) -> bool:
-    """Whether ``<group>/<name>.yaml`` exists in thermodrift's configs or one of ``searchpaths``
-    (``pkg://package.sub`` or ``file://dir`` / a directory)."""
-    relative = f"{group}/{name}.yaml"
+def yaml_files(searchpaths: list[str], group: str) -> dict[str, Any]:
+    """Option name -> YAML file (a path or package resource) of ``group`` in thermodrift's configs and in
+    ``searchpaths`` (``pkg://package.sub`` or ``file://dir`` / a directory); the first path wins, as in Hydra."""
+    found: dict[str, Any] = {}
     for path in (_PRIMARY, *searchpaths):
         if path.startswith("pkg://"):
             try:
-                if importlib.resources.files(path[len("pkg://"):]).joinpath(relative).is_file():
-                    return True
+                folder = importlib.resources.files(path[len("pkg://"):]).joinpath(group)
+                files = list(folder.iterdir()) if folder.is_dir() else []
             except (ModuleNotFoundError, TypeError):  # a search path of an uninstalled package finds nothing
                 continue
-        elif (Path(path.removeprefix("file://")) / relative).is_file():
-            return True
-    return False
+        else:
+            folder = Path(path.removeprefix("file://")) / group
+            files = list(folder.iterdir()) if folder.is_dir() else []
+        for f in files:
+            if f.name.endswith(".yaml"):
+                found.setdefault(f.name[: -len(".yaml")], f)
+    return found
 
 
 def store(registry: Registry) -> None:
@@ -78,7 +82,8 @@ def store(registry: Registry) -> None:
 
     cs = ConfigStore.instance()
     for kind, group in CONFIG_GROUPS.items():
+        shipped = yaml_files(registry.searchpaths, group)
         for name in registry.names(kind):
-            if not has_yaml(registry.searchpaths, group, name):
+            if name not in shipped:
                 component = registry.get(kind, name)
                 cs.store(group=group, name=name, node=node(component), provider=component.origin)

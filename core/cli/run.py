@@ -21,6 +21,7 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from thermodrift.core import configs, registry, tracking
+from thermodrift.core.cli import run_options
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -122,6 +123,8 @@ def main(overrides: list[str]) -> int:
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
     reg = registry.default()
+    flags, rest = _split_flags(overrides)
+    run_options.check_overrides(rest, reg)  # a typo gets one line with the closest right name, before Hydra
     for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
         register()
     configs.store(reg)
@@ -129,7 +132,6 @@ def main(overrides: list[str]) -> int:
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
         extra = [f"hydra.searchpath=[{','.join(reg.searchpaths)}]"]
     argv = sys.argv
-    flags, rest = _split_flags(overrides)
     sys.argv = ["thermodrift run", *flags, *rest, *extra]
     try:
         _task()
