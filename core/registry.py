@@ -136,8 +136,10 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
 
     Every hook is called through pluggy, once per implementing plugin (a subset hook caller holding that
     plugin and every hook wrapper), in pluggy's order (``tryfirst``/``trylast``, then the last registered
-    first, so plugins of equal rank are called in the order of ``entry_points``). So each component records the distribution it came from, wrappers wrap each plugin's call, and
-    a plugin whose import or hook fails is reported by name while the others still load.
+    first; plugins are registered in reverse, so those of equal rank are called in the order of
+    ``entry_points``). So each component records the distribution it came from, wrappers wrap each plugin's
+    call, and a plugin whose import or hook fails is reported by name, keeps none of its components, and
+    the others still load.
     """
     if entry_points is None:
         entry_points = sorted(importlib.metadata.entry_points(group=hookspecs.PROJECT),
