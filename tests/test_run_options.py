@@ -50,6 +50,7 @@ def test_help_lists_every_groups_options_from_the_registry_and_the_keys_with_mea
     (["selector.parms.k=3"], "did you mean 'selector.params'?"),
     (["model=mlr", "model.params.alpah=2"], "model 'mlr' has no parameter 'alpah' (did you mean 'model.params.alpha'?)"),
     (["optimizer=pso_s1", "optimizer.params.c3=1"], "optimizer 'pso_s1' has no parameter 'c3'"),
+    (["experiment=fl_thermal_5000rpm_heldout", "dataset.params.seed=1"], "dataset 'fl_thermal' has no parameter"),
 ])
 def test_a_typo_is_one_line_with_the_closest_right_name(overrides, message):
     with pytest.raises(InputError) as err:
@@ -62,6 +63,7 @@ def test_a_typo_is_one_line_with_the_closest_right_name(overrides, message):
     ["ablation=x"], ["+extra=1"], ["~targets"], ["hydra.run.dir=out"], ["model=glob(*)"], ["model=mlr,bp"],
     ["selector.params.k=6"], ["dataset=recording_file", "dataset.params.table=x.csv"],
     ["hydra/sweeper=thermodrift"], ["optuna.storage=null"], ["model.search_space.alpha.low=0.1"],
+    ["experiment=fl_thermal_5000rpm_heldout", "dataset.params.path=x.xlsx", "split.params.train_end_h=3"],
 ])
 def test_valid_overrides_pass(overrides):
     run_options.check_overrides(overrides, registry.default())

@@ -116,8 +116,9 @@ def check_overrides(overrides: list[str], reg: registry.Registry) -> None:
     right one ("did you mean 'mlr'?") and the choices. Additions (``+key``), deletions (``~key``), Hydra's
     own settings and sweep expressions (``range(...)``, globs) are left to Hydra."""
     groups = {g: options(g, reg) for g in GROUPS}
-    chosen = {**defaults(), **{k: v for k, v in (o.split("=", 1) for o in overrides if "=" in o) if k in groups}}
-    known_keys = {k.path for k in keys()} | set(_preset_keys())
+    given = {k: v for k, v in (o.split("=", 1) for o in overrides if "=" in o) if k in groups}
+    chosen = {**defaults(), **_preset_groups(given.get("experiment", defaults().get("experiment"))), **given}
+    known_keys = {k.path for k in keys()} | _preset_keys()
     top_level = {p.split(".")[0] for p in known_keys} | set(groups) | {"hydra"}
     for override in overrides:
         if "=" not in override or override[0] in "+~" or "/" in override.split("=", 1)[0]:
@@ -177,11 +178,22 @@ def _constructor_params(kind: str, name: str, reg: registry.Registry) -> set[str
     return {n for n, p in signature.parameters.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
 
 
-def _preset_keys() -> list[str]:
-    """Top-level keys that the default experiment preset adds (``ablation``)."""
-    preset = configs.yaml_files([], "experiment").get(defaults().get("experiment", ""))
-    data: Any = yaml.safe_load(preset.read_text(encoding="utf-8")) if preset else {}
-    return list(data or {})
+def _presets() -> dict[str, dict[str, Any]]:
+    """Every experiment preset's YAML content by option name."""
+    return {name: yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+            for name, path in configs.yaml_files([], "experiment").items()}
+
+
+def _preset_keys() -> set[str]:
+    """Top-level keys that experiment presets set (``ablation``)."""
+    return {k for preset in _presets().values() for k in preset if k != "defaults"}
+
+
+def _preset_groups(experiment: str | None) -> dict[str, str]:
+    """The group options a preset selects in its defaults list (``override /dataset: fl_thermal``)."""
+    listed = _presets().get(experiment or "", {}).get("defaults", [])
+    return {k.removeprefix("override ").strip().lstrip("/"): v
+            for item in listed if isinstance(item, dict) for k, v in item.items()}
 
 
 def _did_you_mean(word: str, choices: list[str], prefix: str = "") -> str:
