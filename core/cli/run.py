@@ -84,7 +84,7 @@ def _task(cfg: DictConfig) -> float | None:
     print(f"\n{run_name}\nselected sensors: {', '.join(result.selected)}\n"
           f"held-out ({'; '.join(f.name for f in result.folds)}), µm:\n{table.to_string(float_format='%.3f')}\n"
           f"MLflow run {run.info.run_id} at {cfg.tracking.uri}")
-    return float(result.study.best_value)
+    return result.valid_rmse
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
