@@ -37,7 +37,12 @@ from thermodrift.testing.model_checks import (
     check_search_space,
 )
 from thermodrift.testing.estimator_checks import check_clone, check_constructor_only_stores_params
-from thermodrift.testing.optimizer_checks import check_respects_search_space, check_seed_reproducible
+from thermodrift.testing.optimizer_checks import (
+    check_dynamic_search_space,
+    check_respects_search_space,
+    check_seed_reproducible,
+    check_survives_failed_and_pruned_trials,
+)
 from thermodrift.testing.selector_checks import check_selection_deterministic, check_selection_idempotent
 from thermodrift.testing.suite import CHECKS
 
@@ -168,6 +173,25 @@ class _OffGrid(optuna.samplers.RandomSampler):
         return distribution.high + 1 if isinstance(distribution, optuna.distributions.IntDistribution) else value
 
 
+class _BestSoFar(optuna.samplers.RandomSampler):
+    """Reads every finished trial's value, which a failed trial lacks."""
+
+    def sample_independent(self, study, trial, name, distribution):
+        sum(t.value + 0.0 for t in study.get_trials(deep_copy=False) if t.state.is_finished())
+        return super().sample_independent(study, trial, name, distribution)
+
+
+class _FirstRangeOnly(optuna.samplers.RandomSampler):
+    """Samples each parameter from the first distribution it saw under that name."""
+
+    def __init__(self, seed=None):
+        super().__init__(seed=seed)
+        self.seen = {}
+
+    def sample_independent(self, study, trial, name, distribution):
+        return super().sample_independent(study, trial, name, self.seen.setdefault(name, distribution))
+
+
 @pytest.mark.parametrize("check,factory,message", [
     pytest.param(check_predictions_in_um, _Millimetres, "prediction RMS", id="model-in-mm"),
     pytest.param(check_model_deterministic, _Unseeded, "same seed differ", id="model-unseeded"),
@@ -183,6 +207,10 @@ class _OffGrid(optuna.samplers.RandomSampler):
                  id="optimizer-ignores-seed"),
     pytest.param(check_respects_search_space, lambda seed=None: _OffGrid(seed=seed), "is outside",
                  id="optimizer-leaves-bounds"),
+    pytest.param(check_survives_failed_and_pruned_trials, lambda seed=None: _BestSoFar(seed=seed),
+                 "broke after failed and pruned trials: TypeError", id="optimizer-breaks-on-a-failed-trial"),
+    pytest.param(check_dynamic_search_space, lambda seed=None: _FirstRangeOnly(seed=seed), "is outside",
+                 id="optimizer-keeps-an-old-range"),
     pytest.param(check_returns_recording, lambda: pd.DataFrame({"t": [1.0]}), "not a thermodrift Recording",
                  id="dataset-not-a-recording"),
 ])

@@ -184,7 +184,7 @@ def _complete_trials(db: Path) -> list[tuple[int, float]]:
 
 
 def test_killed_study_resumes_and_keeps_completed_trials(workdir):
-    args = [*EXE, "run", *TINY, "model=bp", "model.params.epochs=60", "n_trials=8", "optimizer=random"]
+    args = [*EXE, "run", *TINY, "model=bp", "model.params.trainer.epochs=60", "n_trials=8", "optimizer=random"]
     env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
     proc = subprocess.Popen(args, cwd=workdir, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)

@@ -28,6 +28,10 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``thermodrift`` console script."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "run" and ("-h" in argv[1:] or "--help" in argv[1:]):
+        from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
+        print(run_options.help_text())
+        return 0
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
         from thermodrift.core.cli import run as app
         return _guard(lambda: app.main(argv[1:]))

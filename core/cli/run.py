@@ -22,6 +22,7 @@ from omegaconf import DictConfig, OmegaConf
 
 from thermodrift.core import configs, registry, tracking
 from thermodrift.core.cli import error_line
+from thermodrift.core.cli import run_options
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -161,17 +162,16 @@ def main(overrides: list[str]) -> int:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
-    # Hydra's plugin scan misses our sweeper under a lenient editable install; registering it is idempotent.
-    from hydra_plugins.thermodrift_sweeper import register
-
-    register()
     reg = registry.default()
+    flags, rest = _split_flags(overrides)
+    run_options.check_overrides(rest, reg)  # a typo gets one line with the closest right name, before Hydra
+    for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
+        register()
     configs.store(reg)
     extra = []
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
         extra = [f"hydra.searchpath=[{','.join(reg.searchpaths)}]"]
     argv = sys.argv
-    flags, rest = _split_flags(overrides)
     sys.argv = ["thermodrift run", *flags, *rest, *extra]
     try:
         _task()

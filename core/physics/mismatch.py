@@ -10,7 +10,8 @@ gives; ≫ 1 marks a localised mismatch). Cells, windows and channels are ranked
 physics finder starts from the top of that list.
 
 Outputs: :meth:`MismatchMap.to_dict` (``mismatch.json``), :func:`plot_heatmap` (time × channel PNG),
-:func:`plot_before_after` (measured, initial guess, calibrated) and :func:`log_to_mlflow`.
+:func:`plot_before_after` (measured, initial guess, calibrated). Logging them is the verb's
+(``thermodrift calibrate``, :mod:`thermodrift.core.cli.calibrate`); this module only computes and draws.
 """
 
 from __future__ import annotations
@@ -202,28 +203,3 @@ def plot_before_after(result: CalibrationResult, path: str | Path, mm: MismatchM
     plt.close(fig)
     return Path(path)
 
-
-def log_to_mlflow(result: CalibrationResult, mm: MismatchMap, out_dir: str | Path, tracking_uri: str | None,
-                  run_name: str = "calibrate", experiment: str = "calibrate") -> str:
-    """Log RMSEs, the objective and every file in ``out_dir`` to an MLflow run; returns the run id."""
-    import mlflow
-
-    from thermodrift.core import tracking
-
-    tracking.setup(tracking_uri, experiment)
-    with mlflow.start_run(run_name=run_name) as run:
-        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
-        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
-                           "confidence_level": result.level, "stopped": result.stopped[:250]})
-        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
-                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
-        for c in result.rmse:
-            metrics[tracking.metric_key("rmse", c)] = result.rmse[c]
-            metrics[tracking.metric_key("rmse_initial", c)] = result.rmse_initial[c]
-        top = mm.by_window().head(5)
-        for rank, (name, row) in enumerate(top.iterrows(), start=1):
-            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
-            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
-        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
-        mlflow.log_artifacts(str(out_dir))
-        return run.info.run_id

@@ -11,6 +11,7 @@ import optuna
 import pandas as pd
 
 from thermodrift.core.errors import InputError
+from thermodrift.core.registry import build
 from thermodrift.core.search_space import distributions, suggest
 from thermodrift.testing import _optuna
 from thermodrift.core.study import model_inputs
@@ -86,7 +87,7 @@ def check_search_space(factory: Factory, params: dict) -> None:
     model = factory(**params)
     space = type(model).search_space()
     assert isinstance(space, dict), f"search_space() must return a dict, got {type(space).__name__}"
-    unknown = sorted(set(space) - set(model.get_params(deep=False)))
+    unknown = sorted(set(space) - set(model.get_params(deep=True)))
     assert not unknown, f"search_space() names {unknown}, which are not constructor parameters"
     try:
         distributions(space)
@@ -101,7 +102,7 @@ def check_search_space(factory: Factory, params: dict) -> None:
             trial = study.ask()
             point = suggest(trial, space)
             try:
-                pred = _fit_predict(seeded(factory(**{**params, **point})), X, y)
+                pred = _fit_predict(seeded(build(factory, {**params, **point})), X, y)
             except Exception as exc:
                 raise AssertionError(f"search-space point {point} failed: {type(exc).__name__}: {exc}") from exc
             assert np.isfinite(pred).all(), f"search-space point {point} gives non-finite predictions"
