@@ -203,7 +203,7 @@ def test_a_sound_model_passes_and_the_report_lists_every_failure():
     check_model(_Linear)
     with pytest.raises(ConformanceError) as err:
         check_model(_Millimetres)
-    assert "failed 1 of 8 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
+    assert "failed 1 of 9 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
 
 
 def test_check_component_includes_the_hydra_config():
