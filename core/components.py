@@ -126,10 +126,27 @@ class Streamer:
         self._times = [] if past is None else [float(t) for t in past.index]
         self._attrs = dict(history.attrs) if history is not None else {}
 
+    def values(self, row, columns: list[str] | None = None) -> np.ndarray:
+        """``row``'s values of ``columns`` (default: the model's inputs) as floats. A Series (``X.iloc[i]``) is
+        read by position, the positions looked up once per columns Index: a label lookup per column would
+        cost more than a linear model's whole prediction."""
+        columns = self.columns if columns is None else columns
+        index = getattr(row, "index", None)
+        if index is not None and hasattr(row, "to_numpy"):
+            cache = self.__dict__.setdefault("_positions", {})
+            key = (id(index), id(columns))
+            if key not in cache:
+                cache.clear()
+                cache[key] = (index, np.asarray(index.get_indexer(columns)))
+            pos = cache[key][1]
+            if (pos >= 0).all():
+                return row.to_numpy(dtype=float)[pos]
+        return np.array([float(row[c]) for c in columns])
+
     def update(self, row) -> np.ndarray:
         """Displacement (µm) per target for one new input ``row`` (a Series named by its time in s, or a
         mapping column -> value)."""
-        x = np.array([[float(row[c]) for c in self.columns]])
+        x = self.values(row)[None, :]
         name = getattr(row, "name", None)
         t = float(name) if isinstance(name, (int, float, np.number)) else float(len(self._times))
         if self.model.history_length == 0:

@@ -162,15 +162,17 @@ class _LPTNStreamer(Streamer):
     def __init__(self, model: LPTN, history: pd.DataFrame | None = None):
         self.model = model
         self.obs = model._fresh()
-        self.pos = {c: i for i, c in enumerate(model.temperatures_)}
+        self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
         if history is not None and len(history):
             model._observe(self.obs, history)
 
     def update(self, row) -> np.ndarray:
         m = self.model
-        temps = np.array([float(row[c]) for c in m.temperatures_])
-        speed = round(max(float(row[m.speed_]), 0.0) / 10.0) * 10.0
-        ambient = float(row[m.ambient_]) if m.ambient_ else cal.AUTO_AMBIENT_DEGC
+        v = self.values(row)
+        n = len(m.temperatures_)
+        temps = v[:n]
+        speed = round(max(float(v[n]), 0.0) / 10.0) * 10.0
+        ambient = float(v[n + 1]) if m.ambient_ else cal.AUTO_AMBIENT_DEGC
         x = self.obs.update(float(row.name), speed, ambient, ambient, temps)
         return m._correct(temps, ambient, (x - m.reference_) @ m.coef_ + m.intercept_)
 
@@ -211,8 +213,9 @@ class LPTNHybrid(LPTN):
         return phys + self._features(X, phys) @ self.res_coef_ + self.res_intercept_
 
     def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
-        f = np.concatenate([temps, [ambient] if self.ambient_ else [], phys])
-        return phys + f @ self.res_coef_ + self.res_intercept_
+        n = len(temps)
+        out = phys + temps @ self.res_coef_[:n] + phys @ self.res_coef_[-len(phys):] + self.res_intercept_
+        return out + ambient * self.res_coef_[n] if self.ambient_ else out
 
 
 @hookimpl
