@@ -219,3 +219,17 @@ def test_calibrate_cli_auto_writes_every_output(tmp_path):
                           str(manifest), "--targets", "T1", "--out", str(out)], capture_output=True, text=True,
                          env=env, timeout=120)
     assert bad.returncode == 2 and "not displacement channels" in bad.stderr
+
+
+def test_fit_grid_follows_the_recordings_time_scales_not_its_sampling():
+    """The same programme at 15 s and at 1 s is fitted on the same grid: every speed change on it."""
+    grids = []
+    for dt in (15.0, 1.0):
+        scen = scenarios.blocks([Block(0.5)] + [b for n in (1250, 5000) for b in (Block(3.0, n), Block(2.0))], dt)
+        t, speed = scen.time_s, scen.frame["speed_rpm"].to_numpy()
+        rows, step = cal.fit_rows(t, speed, time_constants_s=[1800.0])
+        changes = np.flatnonzero(np.diff(speed)) + 1
+        assert set(changes) <= set(rows)
+        grids.append((step, len(rows)))
+    assert grids[0] == grids[1]  # shortest block 0.5 h / 8 = 225 s, however finely sampled
+    assert grids[0][0] == 225.0 and grids[0][1] < 200
