@@ -64,7 +64,7 @@ class Diagnosis:
     screened: int
     seconds: float
     speed_rpm: np.ndarray
-    notes: list[str] = field(default_factory=list)
+    trace: list[dict[str, Any]] = field(default_factory=list)  # every fitted candidate, per round
 
     @property
     def displacement_channels(self) -> list[str]:
@@ -140,12 +140,13 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     measured = recording.data[channels].to_numpy(dtype=float)
     rows = np.flatnonzero(fit_rows)
     blocks = condition_blocks(recording, rows)
-    base = screening.baseline_of(cal.network, scenario, channels)
+    base = screening.baseline_of(cal.network, scenario, channels, measured, rows)
     first = base
     findings: list[dict[str, Any]] = []
     rejected: list[dict[str, Any]] = []
     accepted: set[str] = set()
     windows = driver_windows(recording)
+    trace: list[dict[str, Any]] = []
     screened = 0
     for round_ in range(max_rounds):
         cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only)
@@ -170,6 +171,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         fitted = [selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
                                 base.readings, rows, fit_evaluations) for c in ranked]
         floor = MIN_SHARE * screen.sse0_bal
+        trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
+            screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
+            "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins} for f in fitted]
         passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
                    and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor]
         if not passing:
@@ -193,7 +197,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                  "reason": f"explains less than {win.candidate.mechanism} "
                                            f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)"})
         accepted.add(win.candidate.mechanism)
-        base = screening.baseline_of(win.network, scenario, channels)
+        base = screening.baseline_of(win.network, scenario, channels, measured, rows)
     listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
     for mid in registry.names("mechanism"):
         if (only is None or mid in only) and mid not in listed:
@@ -202,7 +206,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     return Diagnosis(channels, kinds, t, measured, first.readings, base.readings, fit_rows, findings,
                      _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(recording),
                      cal.network, base.network, screened, time.perf_counter() - clock,
-                     scenario.frame["speed_rpm"].to_numpy())
+                     scenario.frame["speed_rpm"].to_numpy(), trace)
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:

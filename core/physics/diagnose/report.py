@@ -121,7 +121,14 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
             lines.append(f"| {k} | {v:.4g} | {'—' if ci is None else f'[{ci[0]:.4g}, {ci[1]:.4g}]'} |")
         lines += ["", "Where: " + "; ".join(f"{w['channel']} in {name}" for w, name in zip(f["where"], f["_windows"]))
                   if f["where"] else "Where: spread over the whole recording.", ""]
-    lines += ["## Rejected", "", "| mechanism | reason |", "|---|---|"]
+    lines += ["## Candidates fitted by re-simulation", "",
+              "Share of the baseline's (balanced) misfit explained by the linearised screening and by the "
+              "re-simulated fit; LR: drop of the noise-weighted sum of squares.", "",
+              "| round | candidate | screening share | fitted share | LR | p | held-out blocks improved |",
+              "|---:|---|---:|---:|---:|---:|---:|"]
+    lines += [f"| {t['round']} | {t['candidate']} | {t['screen_share']:.1%} | {t['fit_share']:.1%} | {t['lr']:.3g} | "
+              f"{t['p_value']:.2g} | {t['blocks_improved']:.0%} |" for t in d.trace]
+    lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
     lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]
     lines += ["", "Files: `report.json`, `residuals.csv` (measured − prediction per channel), `residual_map.png`, "
               "`fit.png`.", ""]

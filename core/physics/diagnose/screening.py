@@ -42,11 +42,17 @@ _SIGNED = {"bearing_heat_law", "centrifugal_growth", "slow_structural_mode", "th
 
 @dataclass
 class Baseline:
-    """A network's noise-free readings over the recording and what its linear parameters can absorb."""
+    """A network's readings over the recording and what its linear parameters can absorb.
+
+    ``raw`` are the network's own noise-free readings; ``readings`` the same with every channel's linear
+    parameters (offset; sensitivities, tilts, centrifugal term and offset) solved again by least squares on the
+    fitting rows at full resolution, so baseline and augmented networks are compared on equal terms.
+    """
 
     network: Network
-    readings: np.ndarray          # (samples, channels) predicted sensor readings
-    nuisance: list[np.ndarray]    # per channel: (samples, q) regressors the calibration solves linearly
+    raw: np.ndarray               # (samples, channels)
+    readings: np.ndarray          # (samples, channels)
+    nuisance: list[np.ndarray]    # per channel: (samples, q) regressors solved linearly
 
 
 @dataclass
@@ -75,8 +81,9 @@ class Candidate:
     part_betas: list = field(default_factory=list)  # their temperature amplitudes
 
 
-def baseline_of(network: Network, scenario, channels: list[str]) -> Baseline:
-    """Readings of ``network`` over ``scenario`` for ``channels`` and each channel's linear regressors."""
+def baseline_of(network: Network, scenario, channels: list[str], measured: np.ndarray,
+                rows: np.ndarray) -> Baseline:
+    """Readings of ``network`` over ``scenario`` for ``channels``, refitted linearly on ``rows``."""
     readings, X = predict(network, scenario)
     idx = {n: i for i, n in enumerate(network.node_names)}
     n_ref = network.reference_speed_rpm
@@ -94,7 +101,16 @@ def baseline_of(network: Network, scenario, channels: list[str]) -> Baseline:
         if out.centrifugal_um:
             cols.append(ratio2)
         nuisance.append(np.column_stack(cols + [ones[:, 0]]))
-    return Baseline(network, readings[channels].to_numpy(), nuisance)
+    raw = readings[channels].to_numpy()
+    fitted = raw.copy()
+    for c, Z in enumerate(nuisance):
+        if Z.shape[1] == 1:  # a temperature channel: its offset
+            fitted[:, c] += float(np.mean(measured[rows, c] - raw[rows, c]))
+            continue
+        scale = np.maximum(np.abs(Z[rows]).max(axis=0), 1e-12)
+        coef = np.linalg.lstsq(Z[rows] / scale, measured[rows, c], rcond=1e-10)[0]
+        fitted[:, c] = (Z / scale) @ coef
+    return Baseline(network, raw, fitted, nuisance)
 
 
 def candidates(registry, base: Baseline, scenario, channels: list[str], recording,
@@ -120,7 +136,7 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
                 except InputError as exc:
                     errors.append(str(exc))
                     continue
-                response = readings - base.readings
+                response = readings - base.raw
                 if not np.isfinite(response).all() or np.abs(response).max() < 1e-9:
                     continue
                 place = _place_text(options)

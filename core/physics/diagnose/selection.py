@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from thermodrift.core.physics.calibrate import FreeParameter, calibrate, predict
-from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, _place_text
+from thermodrift.core.physics.calibrate import FreeParameter, calibrate
+from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, _place_text, baseline_of
 from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
 
@@ -90,7 +90,7 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
         free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit))
     res = calibrate(fit_recording, net, free=free, intervals=bool(free), level=level,
                     max_evaluations=max_evaluations)
-    readings = predict(res.network, scenario)[0][channels].to_numpy()
+    readings = baseline_of(res.network, scenario, channels, measured, rows).readings
     d0 = (((measured - base_readings) / sigma)[rows]) ** 2
     d1 = (((measured - readings) / sigma)[rows]) ** 2
     dsse = float(d0.sum() - d1.sum())
