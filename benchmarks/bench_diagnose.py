@@ -16,8 +16,8 @@ effect is over 20 % of its peak) and run time per case.
 
 Run::
 
-    python benchmarks/bench_diagnose.py                # default: 11 hidden + 6 null cases, dt 120 s (< 10 min)
-    python benchmarks/bench_diagnose.py --full         # 33 hidden + 20 null cases at 60 s, plus --fl
+    python benchmarks/bench_diagnose.py                # default: 11 hidden + 6 null cases, dt 120 s (~5 min)
+    python benchmarks/bench_diagnose.py --full         # 22 hidden + 20 null at 120 s, 2 hidden at 15 s, --fl
     python benchmarks/bench_diagnose.py --fl           # also the semi-synthetic FL_THERMAL cases
 """
 
@@ -100,8 +100,14 @@ def run_case(case, seed: int) -> dict:
     final = ~d.fit_rows
     before, after = d.rmse(d.baseline, final), d.rmse(d.augmented, final)
     cut = float(np.mean([1 - after[c] / before[c] for c in before if before[c] > 0]))
+    # the same cut for the error above the displacement sensors' own noise (which no model can remove)
+    noise = {s.output: s.noise_um for s in case.truth.displacement_sensors}
+    noise = {s.name: noise[s.output] for s in case.truth.displacement_sensors}
+    excess = [1 - np.sqrt(max(after[c] ** 2 - noise[c] ** 2, 0.0)) / np.sqrt(before[c] ** 2 - noise[c] ** 2)
+              for c in before if before[c] > noise[c]]
+    cut_excess = float(np.mean(excess)) if excess else float("nan")
     row = {"case": case.name, "hidden": case.hidden or "none", "top1": top, "findings": len(d.findings),
-           "seconds": seconds, "cut": cut, "hours": float(case.time_s[-1] / 3600), "samples": len(case.time_s),
+           "seconds": seconds, "cut": cut, "cut_excess": cut_excess, "hours": float(case.time_s[-1] / 3600), "samples": len(case.time_s),
            "confidence": d.findings[0]["confidence"] if d.findings else None,
            "param_error": _param_error(case, d.findings[0]) if d.findings and top == case.hidden else None,
            "localisation": _localisation(case, d.findings[0]) if d.findings and top == case.hidden else None,
@@ -153,6 +159,8 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
     perr = [r["param_error"] for r in correct if r["param_error"] is not None]
     loc = [r["localisation"] for r in correct if r["localisation"] is not None]
     cuts = [r["cut"] for r in correct]
+    cuts_x = [r["cut_excess"] for r in correct if np.isfinite(r["cut_excess"])]
+    slow = [r for r in rows if r["samples"] >= 6000]
     secs = [r["seconds"] for r in rows]
     out += ["## Summary", "", "| metric | value | target |", "|---|---:|---:|",
             f"| top-1 accuracy, hidden cases | {len(correct)}/{len(hidden)} = "
@@ -163,17 +171,23 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
             f"{statistics.median(perr) if perr else float('nan'):.1%} | |",
             f"| held-out displacement RMSE cut, median (correct finds) | "
             f"{statistics.median(cuts) if cuts else float('nan'):.0%} | ≥ 50 % |",
+            f"| the same cut of the error above the drift sensors' noise, median | "
+            f"{statistics.median(cuts_x) if cuts_x else float('nan'):.0%} | |",
             f"| localisation: reported windows where the effect acts | "
             f"{statistics.mean(loc) if loc else float('nan'):.0%} | |",
             f"| run time per case, median / max (s) | {statistics.median(secs):.1f} / {max(secs):.1f} | "
-            f"≤ 120 s per 30 h at 15 s |", ""]
-    out += ["## Cases", "", "| case | hidden | top-1 | findings | confidence | param error | held-out cut | s |",
-            "|---|---|---|---:|---:|---:|---:|---:|"]
+            f"≤ 120 s per 30 h at 15 s |"]
+    if slow:
+        out.append(f"| run time per 30 h recording at 15 s (max over {len(slow)}) | "
+                   f"{max(r['seconds'] for r in slow):.1f} s | ≤ 120 s |")
+    out.append("")
+    out += ["## Cases", "", "| case | samples | hidden | top-1 | findings | confidence | param error | held-out cut "
+            "| cut above noise | s |", "|---|---:|---|---|---:|---:|---:|---:|---:|---:|"]
     for r in rows:
         pe = "" if r["param_error"] is None else f"{r['param_error']:.1%}"
         cf = "" if r["confidence"] is None else f"{r['confidence']:.2f}"
-        out.append(f"| {r['case']} | {r['hidden']} | {r['top1']} | {r['findings']} | {cf} | {pe} | "
-                   f"{r['cut']:.0%} | {r['seconds']:.1f} |")
+        out.append(f"| {r['case']} | {r['samples']} | {r['hidden']} | {r['top1']} | {r['findings']} | {cf} | {pe} | "
+                   f"{r['cut']:.0%} | {r['cut_excess']:.0%} | {r['seconds']:.1f} |")
     if fl:
         out += ["", "## Semi-synthetic FL_THERMAL", "", "| case | findings | added effect found | s |",
                 "|---|---|---|---:|"]
@@ -184,16 +198,21 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="33 hidden + 20 null cases at 60 s, and the FL cases")
+    ap.add_argument("--full", action="store_true", help="22 hidden + 20 null cases, 2 at 15 s, and the FL cases")
     ap.add_argument("--fl", action="store_true", help="add the semi-synthetic FL_THERMAL cases")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of FL_THERMAL's data.xlsx")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     reg = registry.default()
-    per, nulls, dt = (3, 20, 60.0) if args.full else (1, 6, 120.0)
+    per, nulls, dt = (2, 20, 120.0) if args.full else (1, 6, 120.0)
     rows = []
     start = time.perf_counter()
-    for case in [*hidden_cases(per, dt, reg), *null_cases(nulls, dt, reg)]:
+    cases = [*hidden_cases(per, dt, reg), *null_cases(nulls, dt, reg)]
+    if args.full:  # run time at the target's sampling: two 30 h recordings at 15 s
+        cases += [concealed_case(physics.load_network(m), h, 9000 + i, registry=reg, dt_s=15.0)
+                  for i, (m, h) in enumerate([("vmc_spindle_s2", "slow_structural_mode"),
+                                              ("motorized_spindle_s3", "coolant_coupling")])]
+    for case in cases:
         r = run_case(case, args.seed)
         rows.append(r)
         print(f"{r['case']:<44} top-1 {r['top1']:<28} {r['seconds']:6.1f} s", file=sys.stderr, flush=True)

@@ -11,10 +11,13 @@ Pipeline (:func:`diagnose`)::
                   are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
     accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
-                  screened candidates) and its condition-blocked cross-validated gain is positive in at least
-                  half the blocks; then screen again on the augmented network (forward selection) until
-                  nothing passes
-    confidence    block-bootstrap inclusion probability; parameter intervals from the re-simulation fit
+                  screened candidates), it explains at least 5 % of the baseline's misfit (a margin for model
+                  error the white-noise test does not see) and its condition-blocked cross-validated gain is
+                  positive in at least half the blocks; then screen again on the augmented network (forward
+                  selection) until nothing passes
+    confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
+                  which the mechanism wins among the fitted candidates and passes the same tests); parameter
+                  intervals from the re-simulation fit
     equivalence   a rival mechanism fitting within 5 % of the winner's gain: "not identifiable from this
                   data", with the experiment that separates them
 
@@ -42,7 +45,7 @@ MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
 EQUIVALENT = 0.05   # rival within this share of the winner's gain: not identifiable
-MIN_SHARE = 0.02    # an accepted mechanism explains at least this share of the (balanced) misfit
+MIN_SHARE = 0.05    # an accepted mechanism explains at least this share of the (balanced) misfit
 
 
 @dataclass
@@ -169,7 +172,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
         fitted = [selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
-                                base.readings, rows, fit_evaluations) for c in ranked]
+                                base.readings, rows, blocks, fit_evaluations) for c in ranked]
         floor = MIN_SHARE * screen.sse0_bal
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
@@ -183,7 +186,11 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         win = max(passing, key=lambda f: f.dsse_bal)
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
-        inclusion = screening.bootstrap_winners(cands, screen, m, alpha, bootstrap, seed + round_, MIN_SHARE)
+        sse0_blocks = np.zeros(int(blocks.max()) + 1)
+        for w_g, members in zip(screen.weights, screen.groups):
+            for c_ in members:
+                sse0_blocks += w_g * np.bincount(blocks, screen.resid[c_] ** 2, minlength=len(sse0_blocks))
+        inclusion = selection.bootstrap_inclusion(fitted, sse0_blocks, m, alpha, MIN_SHARE, bootstrap, seed + round_)
         findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
                                  kinds, channels, windows, t, alpha))
         for f in rivals:

@@ -63,7 +63,7 @@ def verdict(d) -> str:
     if not d.findings:
         return ("Nothing is missing as far as this data can tell: no mechanism in the library explains a "
                 "significant share of what the calibrated model misses (every candidate failed the corrected "
-                "likelihood-ratio test, the held-out condition blocks or the 2 % floor; see rejected). "
+                "likelihood-ratio test, the held-out condition blocks or the 5 % floor; see rejected). "
                 f"The calibrated model's drift error on the final, unseen block: "
                 + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + ".")
     parts = []

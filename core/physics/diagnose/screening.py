@@ -12,7 +12,7 @@ Scores on the screening rows: ΔSSE in units of each channel's noise variance, w
 statistic of the amplitudes when the noise σ is known (χ² with one degree of freedom per amplitude when
 nothing is missing); a balanced ΔSSE for ranking (temperature channels together weigh as much as displacement
 channels together); and a condition-blocked cross-validated gain (amplitudes fitted without a block, scored
-on it). Per-block sufficient statistics are kept for the block bootstrap. A mechanism acting at several places
+on it). A mechanism acting at several places
 at once (cutting heat into the tool and the spindle) is a greedy union of its best places (:func:`best_compound`).
 """
 
@@ -77,6 +77,7 @@ class Candidate:
     dsse_bal: float = 0.0
     block_stats: Any = None       # (blocks, groups, 3): <R,r>, <R,R>, <r,r> per block and group
     projected: Any = None         # per channel, the response projected and weighted like the residual
+    gram: Any = None              # (blocks, groups, k+1, k+1) Gram matrices of [responses, residual]
     parts: list = field(default_factory=list)       # single-place candidates of a several-place candidate
     part_betas: list = field(default_factory=list)  # their temperature amplitudes
 
@@ -315,6 +316,7 @@ def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
     out.cv_gain, out.cv_wins = cv, wins / nb
     out.beta = first.beta
     out.block_stats, out.projected = first.block_stats, first.projected
+    out.gram = gram
     return out
 
 
@@ -338,36 +340,3 @@ def best_compound(screen: Screen, singles: list[Candidate], max_places: int = 3,
             chosen.append(nxt)
             current = trial
     return current
-
-
-def bootstrap_winners(cands: list[Candidate], screen: Screen, n_tests: int, alpha: float, draws: int,
-                      seed: int, min_share: float) -> dict[str, float]:
-    """Block-bootstrap share of resamples (condition blocks drawn with replacement) in which each mechanism's
-    best candidate has the largest ΔSSE and passes the corrected likelihood-ratio test."""
-    if not cands:
-        return {}
-    rng = np.random.default_rng(seed)
-    nb = int(screen.blocks.max()) + 1
-    sse0_bal_blocks = np.zeros(nb)
-    for w, members in zip(screen.weights, screen.groups):
-        for c in members:
-            sse0_bal_blocks += w * np.bincount(screen.blocks, screen.resid[c] ** 2, minlength=nb)
-    signed = np.array([c.mechanism in _SIGNED for c in cands])
-    temps_first = screen.temps_first
-    S = np.stack([c.block_stats for c in cands])                             # (cands, blocks, groups, 3)
-    wins: dict[str, int] = {}
-    for _ in range(draws):
-        pick = rng.integers(0, nb, nb)
-        tot = S[:, pick].sum(axis=1)                                         # (cands, groups, 3)
-        beta = np.where(tot[..., 1] > 1e-12, tot[..., 0] / np.maximum(tot[..., 1], 1e-300), 0.0)
-        if temps_first:
-            beta[:, 0] = np.where(signed, beta[:, 0], np.maximum(beta[:, 0], 0.0))
-        gain = (2 * beta * tot[..., 0] - beta ** 2 * tot[..., 1]) @ screen.weights
-        best = int(np.argmax(gain))
-        raw = (2 * beta[best] * tot[best, :, 0] - beta[best] ** 2 * tot[best, :, 1]).sum()
-        sse0 = float(sse0_bal_blocks[pick].sum())
-        if raw <= 0 or gain[best] < min_share * sse0:
-            continue
-        if stats.chi2.sf(raw, max(int((tot[best, :, 1] > 1e-12).sum()), 1)) < alpha / n_tests:
-            wins[cands[best].mechanism] = wins.get(cands[best].mechanism, 0) + 1
-    return {m: w / draws for m, w in wins.items()}

@@ -52,6 +52,8 @@ class Fitted:
     p_value: float
     parameters: dict[str, float] = field(default_factory=dict)
     ci: dict[str, Any] = field(default_factory=dict)
+    block_raw: Any = None  # per condition block: drop of the noise-weighted sum of squares
+    block_bal: Any = None  # the same, balanced
 
 
 def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeParam, float]]]:
@@ -74,7 +76,7 @@ def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeP
 
 
 def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[str], measured: np.ndarray,
-        sigma: np.ndarray, weights: np.ndarray, base_readings: np.ndarray, rows: np.ndarray,
+        sigma: np.ndarray, weights: np.ndarray, base_readings: np.ndarray, rows: np.ndarray, blocks: np.ndarray,
         max_evaluations: int, level: float = 0.95) -> Fitted:
     """Calibrate the candidate's free parameters by re-simulation and score the augmented network.
 
@@ -107,5 +109,30 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
             ci[fp.name] = [float(ends[0]), float(ends[1])]
         else:
             ci[fp.name] = None
+    nb = int(blocks.max()) + 1
+    diff = d0 - d1
+    block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
+    block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
-                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci)
+                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, block_raw, block_bal)
+
+
+def bootstrap_inclusion(fitted: list[Fitted], sse0_bal_blocks: np.ndarray, n_tests: int, alpha: float,
+                        min_share: float, draws: int, seed: int) -> dict[str, float]:
+    """Share of block-bootstrap resamples (condition blocks drawn with replacement) in which each fitted
+    mechanism has the largest balanced gain and passes the same tests as the selection."""
+    rng = np.random.default_rng(seed)
+    nb = len(sse0_bal_blocks)
+    raw = np.stack([f.block_raw for f in fitted])
+    bal = np.stack([f.block_bal for f in fitted])
+    wins: dict[str, int] = {}
+    for _ in range(draws):
+        pick = rng.integers(0, nb, nb)
+        g = bal[:, pick].sum(axis=1)
+        best = int(np.argmax(g))
+        f = fitted[best]
+        if g[best] <= min_share * sse0_bal_blocks[pick].sum():
+            continue
+        if stats.chi2.sf(max(float(raw[best, pick].sum()), 0.0), f.dof) < alpha / n_tests:
+            wins[f.candidate.mechanism] = wins.get(f.candidate.mechanism, 0) + 1
+    return {m: w / draws for m, w in wins.items()}
