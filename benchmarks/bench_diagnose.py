@@ -107,7 +107,8 @@ def run_case(case, seed: int) -> dict:
               for c in before if before[c] > noise[c]]
     cut_excess = float(np.mean(excess)) if excess else float("nan")
     row = {"case": case.name, "hidden": case.hidden or "none", "top1": top, "findings": len(d.findings),
-           "seconds": seconds, "cut": cut, "cut_excess": cut_excess, "hours": float(case.time_s[-1] / 3600), "samples": len(case.time_s),
+           "seconds": seconds, "cut": cut, "cut_excess": cut_excess, "hours": float(case.time_s[-1] / 3600),
+           "samples": len(case.time_s),
            "confidence": d.findings[0]["confidence"] if d.findings else None,
            "param_error": _param_error(case, d.findings[0]) if d.findings and top == case.hidden else None,
            "localisation": _localisation(case, d.findings[0]) if d.findings and top == case.hidden else None,
@@ -166,7 +167,8 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
             f"| top-1 accuracy, hidden cases | {len(correct)}/{len(hidden)} = "
             f"{len(correct) / max(len(hidden), 1):.0%} | ≥ 90 % |",
             f"| wrong top-1 but the truth named as 'not identifiable' rival | {len(flagged)} | |",
-            f"| null cases with an accepted finding | {sum(r['findings'] > 0 for r in nulls)}/{len(nulls)} | 0 of ≥ 20 |",
+            f"| null cases with an accepted finding | {sum(r['findings'] > 0 for r in nulls)}/{len(nulls)} | "
+            "0 of ≥ 20 |",
             f"| parameter error, median relative (correct finds) | "
             f"{statistics.median(perr) if perr else float('nan'):.1%} | |",
             f"| held-out displacement RMSE cut, median (correct finds) | "

@@ -154,8 +154,9 @@ def plot_residual_map(d, path: Path) -> Path:
     edges, g0 = _bins(d, before / scale)
     _, g1 = _bins(d, after / scale)
     vmax = float(max(g0.max(), 1e-9))
+    tall = max(2, len(d.channels) / 3)
     fig, axes = plt.subplots(3, 1, figsize=(12, 2 + 0.5 * len(d.channels)), sharex=True,
-                             gridspec_kw={"height_ratios": [1, max(2, len(d.channels) / 3), max(2, len(d.channels) / 3)]})
+                             gridspec_kw={"height_ratios": [1, tall, tall]})
     axes[0].plot(d.time_s / 3600, d.speed_rpm, color="k", lw=0.8)
     axes[0].set_ylabel("rpm")
     cut = d.time_s[~d.fit_rows][0] / 3600 if (~d.fit_rows).any() else None
