@@ -64,9 +64,11 @@ def test_cli_writes_report_json_in_the_issue_shape(cutting_case, tmp_path):
     import yaml
     net.write_text(yaml.safe_dump(physics.network_to_dict(cutting_case.baseline)), encoding="utf-8")
     out = tmp_path / "dx"
+    runs = tmp_path / "mlruns"
     code = cli.main(["diagnose", str(table), "--manifest", str(manifest), "--network", str(net), "--out", str(out),
-                     "--mechanisms", *LIBRARY])
+                     "--tracking-uri", f"sqlite:///{tmp_path / 'mlflow.db'}", "--mechanisms", *LIBRARY])
     assert code == 0
+    assert any(p.name == "report.json" for p in runs.rglob("report.json"))  # the MLflow run holds the report
     doc = json.loads((out / "report.json").read_text(encoding="utf-8"))
     assert list(doc) == ["baseline", "findings", "rejected", "augmented", "verdict"]
     disp = cutting_case.recording.columns("displacement")
