@@ -11,10 +11,10 @@ Pipeline (:func:`diagnose`)::
                   are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
     accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
-                  screened candidates), it explains at least 5 % of the baseline's misfit (a margin for model
-                  error the white-noise test does not see) and its condition-blocked cross-validated gain is
-                  positive in at least half the blocks; then screen again on the augmented network (forward
-                  selection) until nothing passes
+                  screened candidates), its fitted parameters lie within their physical bounds, it explains
+                  at least 5 % of the baseline's misfit (a margin for model error the white-noise test does
+                  not see) and its condition-blocked cross-validated gain is positive in at least half the
+                  blocks; then screen again on the augmented network (forward selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit
@@ -171,14 +171,21 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
-        fitted = [selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
-                                base.readings, rows, blocks, fit_evaluations) for c in ranked]
+        fitted = []
+        for c in ranked:
+            try:
+                fitted.append(selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
+                                            base.readings, rows, blocks, fit_evaluations))
+            except InputError as exc:  # the augmented network cannot be simulated at some parameter value
+                rejected.append({"mechanism": c.mechanism, "reason": f"fit failed: {exc}"})
+        if not fitted:
+            break
         floor = MIN_SHARE * screen.sse0_bal
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins} for f in fitted]
         passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
-                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor]
+                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside]
         if not passing:
             for f in fitted:
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": _why_not(f, alpha, m, floor)})
@@ -200,9 +207,10 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                        f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
         for f in fitted:
             if f is not win and f not in rivals:
-                rejected.append({"mechanism": f.candidate.mechanism,
-                                 "reason": f"explains less than {win.candidate.mechanism} "
-                                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)"})
+                reason = (_why_not(f, alpha, m, floor) if f not in passing else
+                          f"explains less than {win.candidate.mechanism} "
+                          f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
         accepted.add(win.candidate.mechanism)
         base = screening.baseline_of(win.network, scenario, channels, measured, rows)
     listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
@@ -233,6 +241,8 @@ def _why_not(f, alpha: float, m: int, floor: float) -> str:
         return f"not significant: likelihood ratio {f.dsse:.3g}, p = {f.p_value:.2g} ≥ {alpha:g}/{m} (Bonferroni)"
     if f.dsse_bal < floor:
         return f"explains under {MIN_SHARE:.0%} of the baseline's misfit"
+    if f.outside:
+        return "fits only with unphysical values: " + "; ".join(f.outside)
     return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
 
 

@@ -280,7 +280,7 @@ def _solve(G: np.ndarray, nonneg: bool) -> np.ndarray:
     AtA, Atr = G[:k, :k], G[:k, k]
     if not nonneg:
         return np.linalg.lstsq(AtA, Atr, rcond=1e-12)[0]
-    # ||Aβ − r||² = ||Lᵀβ − L⁻¹Aᵀr||² + const with AᵀA = L Lᵀ: a k×k non-negative least-squares problem
+    # ||Aβ − r||² = ||Hβ − H⁻¹Aᵀr||² + const with AᵀA = H² (H symmetric): a k×k non-negative problem
     w, V = np.linalg.eigh(AtA)
     w = np.maximum(w, 1e-12 * max(w.max(), 1e-300))
     half = (V * np.sqrt(w)) @ V.T

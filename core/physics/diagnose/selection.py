@@ -52,6 +52,7 @@ class Fitted:
     p_value: float
     parameters: dict[str, float] = field(default_factory=dict)
     ci: dict[str, Any] = field(default_factory=dict)
+    outside: list[str] = field(default_factory=list)  # parameters fitted outside their physical bounds
     block_raw: Any = None  # per condition block: drop of the noise-weighted sum of squares
     block_bal: Any = None  # the same, balanced
 
@@ -89,6 +90,7 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
         if fp.scale != "log":
             continue
         lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
+        lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a field's limit
         free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit))
     res = calibrate(fit_recording, net, free=free, intervals=bool(free), level=level,
                     max_evaluations=max_evaluations)
@@ -109,12 +111,15 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
             ci[fp.name] = [float(ends[0]), float(ends[1])]
         else:
             ci[fp.name] = None
+    slack = 1e-6
+    outside = [f"{fp.name} = {params[fp.name]:.4g} {fp.unit} outside [{fp.low:g}, {fp.high:g}]" for fp, _ in declared
+               if not fp.low - slack * abs(fp.low) <= params[fp.name] <= fp.high + slack * abs(fp.high)]
     nb = int(blocks.max()) + 1
     diff = d0 - d1
     block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
     block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
-                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, block_raw, block_bal)
+                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal)
 
 
 def bootstrap_inclusion(fitted: list[Fitted], sse0_bal_blocks: np.ndarray, n_tests: int, alpha: float,
