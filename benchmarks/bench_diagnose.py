@@ -225,7 +225,10 @@ def main(argv: list[str] | None = None) -> int:
         r = run_case(case, args.seed)
         rows.append(r)
         print(f"{r['case']:<44} top-1 {r['top1']:<28} {r['seconds']:6.1f} s", file=sys.stderr, flush=True)
-    fl = fl_cases(args.data, args.seed) if args.fl and (args.data / "data.xlsx").is_file() else []
+    if args.fl and not (args.data / "data.xlsx").is_file():
+        print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
+        return 2
+    fl = fl_cases(args.data, args.seed) if args.fl else []
     print(f"# diagnose benchmark ({'full' if args.full else 'default'}: step {dt:g} s, "
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
