@@ -20,6 +20,7 @@ VERBS = {
     "run": ("thermodrift.core.cli.run", "Run experiments (Hydra overrides; -m for a grid)."),
     "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
+    "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
 }
 
