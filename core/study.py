@@ -3,7 +3,8 @@ baselines.
 
 What is true for every honest split (``Split.protocol == "honest"``): everything that produces a fold's held-out
 prediction sees only that fold's training rows. Per fold (nested), the selector is fitted on the training part,
-the study tunes on an inner validation fold inside it (``splits.inner_fold``), models scale inside their own
+the study tunes on an inner validation fold inside it (``splits.inner_fold``; a selector that declares a search
+space is tuned jointly with the model: each trial selects on the inner training rows), models scale inside their own
 ``fit``, and the best parameters are refitted on the training part. So the held-out part is touched once, by the
 refit model and the persistence and MLR baselines beside it. A model with history (``history_length != 0``)
 gets, for each contiguous block of rows it predicts, the input rows just before the block as ``history``
@@ -37,6 +38,7 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
 
+SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
 INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
 
@@ -53,6 +55,7 @@ class JobSpec:
     dataset_params: dict = field(default_factory=dict)
     model_params: dict = field(default_factory=dict)
     model_search_space: dict | None = None  # None: the model's own default
+    selector_search_space: dict | None = None  # None: the selector's own default; tuned jointly with the model
     selector_params: dict = field(default_factory=dict)
     optimizer_params: dict = field(default_factory=dict)
     split_params: dict = field(default_factory=dict)
@@ -91,6 +94,7 @@ class FoldResult:
     study: optuna.Study | None = None
     trials_before: int = 0  # finished trials found in the storage before this run
     model: Any = None  # refit on this fold's training part
+    selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
 
 
 @dataclass
@@ -186,26 +190,36 @@ class Job:
         """Select, tune, refit and evaluate on one fold; only ``fold.train`` rows reach selection and tuning."""
         spec = self.spec
         y_all = recording.data[targets]
-        selector = registry.create("selector", spec.selector,
-                                   **_with_seed(registry.get("selector", spec.selector).factory,
-                                                spec.selector_params, spec.seed))
-        selected = selector.fit(recording.data[features].iloc[fold.train], y_all.iloc[fold.train]).selected_
-        frames: dict[str, pd.DataFrame] = {}
+        X_all = recording.data[features]
+        sel_factory = registry.get("selector", spec.selector).factory
+        sel_space = (spec.selector_search_space if spec.selector_search_space is not None
+                     else sel_factory.search_space())
+        sel_space = {f"{SELECTOR_PREFIX}{k}": v for k, v in (sel_space or {}).items()} if spec.n_trials else {}
+        search_space.distributions(sel_space)
 
-        def inputs(model_name: str) -> pd.DataFrame:
-            if model_name not in frames:
+        def fit_selector(params: dict, rows: np.ndarray):
+            sel = registry.create("selector", spec.selector,
+                                  **_with_seed(sel_factory, {**spec.selector_params, **params}, spec.seed))
+            return sel.fit(X_all.iloc[rows], y_all.iloc[rows])
+
+        selector = fit_selector({}, fold.train)
+        frames: dict[tuple, pd.DataFrame] = {}
+
+        def inputs(model_name: str, chosen: list[str] | None = None) -> pd.DataFrame:
+            key = (model_name, tuple(chosen if chosen is not None else selector.selected_))
+            if key not in frames:
                 cls = registry.get("model", model_name).factory
-                frames[model_name] = model_inputs(recording, selected, cls, targets)
-            return frames[model_name]
+                frames[key] = model_inputs(recording, list(key[1]), cls, targets)
+            return frames[key]
 
         inner = splits.inner_fold(recording.select(fold.train))
         inner_train, inner_val = fold.train[inner.train], fold.train[inner.test]
 
-        def validate(params: dict, trial: optuna.Trial | None = None) -> float:
+        def validate(params: dict, trial: optuna.Trial | None = None, chosen: list[str] | None = None) -> float:
             model = self._model(spec.model, params)
             with training.reporting(trial) if trial is not None else contextlib.nullcontext():
-                model.fit(inputs(spec.model).iloc[inner_train], y_all.iloc[inner_train])
-            pred = predict_rows(model, inputs(spec.model), inner_val, allowed=fold.train)
+                model.fit(inputs(spec.model, chosen).iloc[inner_train], y_all.iloc[inner_train])
+            pred = predict_rows(model, inputs(spec.model, chosen), inner_val, allowed=fold.train)
             rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
             if trial is not None:
                 report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
@@ -214,8 +228,13 @@ class Job:
             return rmse
 
         def objective(trial: optuna.Trial) -> float:
+            chosen = None
+            if sel_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
+                sel_params = {k.removeprefix(SELECTOR_PREFIX): v for k, v in search_space.suggest(trial, sel_space).items()}
+                chosen = fit_selector(sel_params, inner_train).selected_
+                trial.set_user_attr("selected", ",".join(chosen))
             try:
-                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial)
+                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial, chosen)
             except training.DivergedError as exc:
                 trial.set_user_attr("diverged", True)
                 trial.set_user_attr("fail_reason", str(exc))
@@ -245,7 +264,12 @@ class Job:
                            for t in study.trials}
                 raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
                                  f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
-            best, valid = {**spec.model_params, **study.best_params}, float(study.best_value)
+            tuned = study.best_params
+            best = {**spec.model_params, **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}}
+            valid = float(study.best_value)
+            if sel_space:  # the best trial's selector parameters, refitted on the whole training part
+                selector = fit_selector({k.removeprefix(SELECTOR_PREFIX): v for k, v in tuned.items()
+                                         if k.startswith(SELECTOR_PREFIX)}, fold.train)
 
         preds: dict[str, np.ndarray] = {}
         model = None
@@ -256,8 +280,9 @@ class Job:
                 model = m
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
-                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selected),
-                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model)
+                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
+                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
+                          selector=selector)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")

@@ -146,6 +146,11 @@ def log_result(result, params: dict[str, Any]) -> None:
             per = result.summary_metrics(who, channel)
             names = per if who == "model" else ["rmse"]
             metrics.update({metric_key(*prefix, channel, n): per[n] for n in names})
+    for k, fold in enumerate(result.folds, 1):  # per fold too, so a report can tell a protocol's blocks apart
+        mlflow.log_param(f"fold{k}/name", _short(fold.name))
+        for who, per in fold.metrics.items():
+            prefix = ("test",) if who == "model" else ("baseline", who, "test")
+            metrics.update({metric_key(f"fold{k}", *prefix, n): v for n, v in per["mean"].items()})
     for base in (w for w in result.folds[0].metrics if w != "model"):
         ref = metrics[metric_key("baseline", base, "test", "rmse")]
         if ref > 0:
@@ -159,6 +164,10 @@ def log_result(result, params: dict[str, Any]) -> None:
         for fig_name, fig in figures(result).items():
             fig.savefig(tmp_path / fig_name, dpi=110, bbox_inches="tight")
             mlflow.log_artifact(str(tmp_path / fig_name), artifact_path=FIGURES)
+        for k, fold in enumerate(result.folds, 1):
+            where = "selector" if len(result.folds) == 1 else f"selector/fold{k}"
+            for name, path in selector_report(getattr(fold, "selector", None), tmp_path / where).items():
+                mlflow.log_artifact(str(path), artifact_path=where)
     # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
     # refuses estimator classes it does not know, and every plugin model is one.
     mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
@@ -175,6 +184,23 @@ def _log_dataset(result) -> None:
         warnings.simplefilter("ignore")  # mlflow's notes on schema inference for integer columns
         dataset = mlflow.data.from_pandas(rec.data.reset_index(), source=str(rec.source), name=name)
         mlflow.log_input(dataset, context="recording")
+
+
+def selector_report(selector, folder: Path) -> dict[str, Path]:
+    """Write a fitted selector's ``report_`` tables (CSV) and ``report_figures()`` (PNG) into ``folder``."""
+    tables = getattr(selector, "report_", None) or {}
+    draw = getattr(selector, "report_figures", None)
+    if not tables and draw is None:
+        return {}
+    folder.mkdir(parents=True, exist_ok=True)
+    out = {}
+    for name, table in tables.items():
+        out[name] = folder / f"{name}.csv"
+        table.to_csv(out[name], index=not isinstance(table.index, pd.RangeIndex))
+    for name, fig in (draw() if callable(draw) and tables else {}).items():
+        out[name] = folder / name
+        fig.savefig(out[name], dpi=110, bbox_inches="tight")
+    return out
 
 
 def comparison(result) -> pd.DataFrame:
@@ -281,6 +307,12 @@ class SweepRun(Callback):
                 path = Path(tmp) / "grid.csv"
                 pd.DataFrame(rows).to_csv(path, index=False)
                 client.log_artifact(parent, str(path))
+            from thermodrift.core import report
+
+            try:  # the studies' tables and the grid summary, under report/ on the parent run
+                report.log_to_parent(client, parent)
+            except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
+                client.set_tag(parent, "report_error", str(exc)[:500])
         finished = [c for c in children if c.info.status == "FINISHED" and "valid/best_rmse" in c.data.metrics]
         models = [c for c in finished if "reference" not in c.data.tags] or finished  # compensation models first
         best = min(models, key=lambda c: c.data.metrics["valid/best_rmse"]) if models else None

@@ -66,7 +66,8 @@ def test_no_test_row_reaches_selection_tuning_or_refit(reg, case):
     rec = tiny_recording(seed=0)
     kind, params = case.split("/")[0], HONEST[case]
     spec = JobSpec(dataset="tiny", model="recording_mlr", selector="recording_top_k", optimizer="random",
-                   split=kind, split_params=params, n_trials=3, storage=None, progress=False)
+                   split=kind, split_params=params, n_trials=3, storage=None, progress=False,
+                   selector_search_space={})  # one selection per fold; joint tuning: tests/test_s1s2_history.py
     CALLS.clear()
     result = Job(spec).run(rec)
     folds = splits.make_split(kind, **params).folds(rec)

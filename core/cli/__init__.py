@@ -22,6 +22,7 @@ VERBS = {
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
     "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
+    "report": ("thermodrift.core.cli.report", "The published studies' tables (S1 Table 7, S2) from a sweep in MLflow."),
 }
 
 

@@ -57,6 +57,7 @@ def spec_from_config(cfg: DictConfig) -> JobSpec:
     return JobSpec(
         dataset=c["dataset"]["name"], dataset_params=c["dataset"].get("params") or {},
         selector=c["selector"]["name"], selector_params=c["selector"].get("params") or {},
+        selector_search_space=c["selector"].get("search_space"),
         model=c["model"]["name"], model_params=c["model"].get("params") or {},
         model_search_space=space,
         optimizer=c["optimizer"]["name"], optimizer_params=c["optimizer"].get("params") or {},
