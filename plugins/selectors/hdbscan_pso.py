@@ -6,7 +6,9 @@ clusters the points (noise sensors belong to no cluster); a cluster's signal is 
 series. An inner Optuna study tunes min_samples (2-20), min_cluster_size (2-20), alpha (0.5-2.0) and
 cluster_selection_epsilon (0-0.5) with any registered optimizer (default: S3's PSO, w 0.729, c1 = c2 = 1.494,
 swarm 20), fitness the largest |Pearson r| between a cluster's signal and the error (mean over displacement
-channels). The selection is the best cluster of the tuned clustering.
+channels). A setting that leaves every sensor as noise (with 16 sensors, any min_samples above about 4) scores
+below every clustering, the lower the larger min_samples + min_cluster_size, so the search has a slope to follow
+instead of a plateau of zeros. The selection is the best cluster of the tuned clustering.
 
 S3 runs 100 iterations (2,000 trials); the default here is 25 iterations (500 trials, a few seconds on a CPU);
 ``n_iterations=100`` restores the paper's budget (``selector.params.n_iterations=100``).
@@ -108,6 +110,8 @@ class HDBSCANPSO(Selector):
             params = {name: (trial.suggest_int(name, *bounds) if isinstance(bounds[0], int)
                              else trial.suggest_float(name, *bounds)) for name, bounds in SPACE.items()}
             labels = _cluster(points, **_capped(params, high))
+            if labels.max() < 0:  # all noise: a fitness below every clustering's, rising toward smaller settings
+                return -(params["min_samples"] + params["min_cluster_size"]) / (4 * SPACE["min_samples"][1])
             return _fitness(points, labels, target)
 
         optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -163,11 +167,34 @@ def _sklearn_defaults(n_points: int) -> dict:
 
 
 def _cluster(points: np.ndarray, **params) -> np.ndarray:
+    """HDBSCAN labels of the sensors (-1 = noise)."""
     from sklearn.cluster import HDBSCAN
 
     params = _capped(params, len(points) - 1)
     params["min_cluster_size"] = max(2, params["min_cluster_size"])
-    return HDBSCAN(copy=True, **params).fit(points).labels_
+    try:
+        return HDBSCAN(copy=True, **params).fit(points).labels_
+    except TypeError:
+        # scikit-learn's epsilon merge raises under NumPy 2 whenever it has to merge (scikit-learn#33219, fixed
+        # upstream, not released for 1.9): merge from the same single-linkage tree through its public DBSCAN* cut.
+        eps = params.pop("cluster_selection_epsilon")
+        fitted = HDBSCAN(copy=True, **params).fit(points)
+        return _epsilon_merge(fitted.labels_, fitted.dbscan_clustering(eps, params["min_cluster_size"]))
+
+
+def _epsilon_merge(eom: np.ndarray, cut: np.ndarray) -> np.ndarray:
+    """Malzer & Baum's epsilon rule on flat labels: EOM clusters that split below epsilon (they share one DBSCAN*
+    cluster of the cut at epsilon) become that DBSCAN* cluster; the other EOM clusters stay."""
+    out = eom.copy()
+    next_label = eom.max() + 1
+    for d in sorted(set(cut.tolist()) - {-1}):
+        inside = cut == d
+        parts = set(eom[inside].tolist()) - {-1}
+        if len(parts) >= 2:
+            out[inside | np.isin(eom, list(parts))] = next_label
+            next_label += 1
+    _, relabelled = np.unique(np.where(out >= 0, out, -1), return_inverse=True)
+    return np.where(out >= 0, relabelled - (out < 0).any(), -1)
 
 
 def _signals(points: np.ndarray, labels: np.ndarray) -> dict[int, np.ndarray]:
@@ -206,9 +233,9 @@ def _cluster_table(names: list[str], points: np.ndarray, labels: np.ndarray, tar
 
 
 def bwp(points: np.ndarray, labels: np.ndarray) -> float:
-    """Mean between-within proportion (Zhou et al.): per point (b - w) / (b + w), w its mean distance to its own
-    cluster, b the smallest mean distance to another cluster; noise left out; NaN with fewer than two clusters.
-    scikit-learn has no BWP, hence written here."""
+    """Mean between-within proportion (Zhou et al.): per point (b - w) / (b + w), w its mean distance to the rest
+    of its own cluster (0 for a singleton), b the smallest mean distance to another cluster; label -1 left out;
+    NaN with fewer than two clusters. scikit-learn has no BWP, hence written here."""
     keep = labels >= 0
     p, lab = points[keep], labels[keep]
     clusters = sorted(set(lab.tolist()))
@@ -225,16 +252,19 @@ def bwp(points: np.ndarray, labels: np.ndarray) -> float:
 
 
 def _quality(points: np.ndarray, labels: np.ndarray, target: np.ndarray) -> dict[str, float]:
-    """Davies-Bouldin (lower is better), silhouette and BWP (higher is better) over the clustered sensors."""
+    """Davies-Bouldin (lower is better), silhouette and BWP (higher is better) over every sensor, each noise sensor
+    counted as a cluster of its own (so one cluster plus noise is scored too); NaN where the partition has fewer
+    than two groups or no group of two."""
     from sklearn.metrics import davies_bouldin_score, silhouette_score
 
-    keep = labels >= 0
-    n_clusters = len(set(labels[keep].tolist()))
-    ok = n_clusters >= 2 and keep.sum() > n_clusters
-    return {"n_clusters": float(n_clusters), "n_noise": float((~keep).sum()),
-            "davies_bouldin": float(davies_bouldin_score(points[keep], labels[keep])) if ok else float("nan"),
-            "silhouette": float(silhouette_score(points[keep], labels[keep])) if ok else float("nan"),
-            "bwp": bwp(points, labels), "fitness": _fitness(points, labels, target)}
+    n_clusters = len(set(labels[labels >= 0].tolist()))
+    groups = labels.copy()
+    groups[labels < 0] = n_clusters + np.arange((labels < 0).sum())
+    ok = 2 <= len(set(groups.tolist())) < len(groups)
+    return {"n_clusters": float(n_clusters), "n_noise": float((labels < 0).sum()),
+            "davies_bouldin": float(davies_bouldin_score(points, groups)) if ok else float("nan"),
+            "silhouette": float(silhouette_score(points, groups)) if ok else float("nan"),
+            "bwp": bwp(points, groups) if ok else float("nan"), "fitness": _fitness(points, labels, target)}
 
 
 def _convergence(study: optuna.Study, population: int) -> pd.Series:
