@@ -36,6 +36,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from thermodrift.core import limits
 from thermodrift.core.errors import InputError
 
 ROLES = ("speed", "temperature", "displacement", "ambient", "coolant_inlet", "coolant_outlet",
@@ -397,6 +398,8 @@ def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLi
         if role in _NONCONSTANT_ROLES and np.ptp(values) == 0:
             raise InputError(f"{role} is constant ({values[0]:g} {unit} in every row)", file=table, column=name,
                              hint="check the sensor or mark the column role: ignore in the manifest")
+        if role == "displacement":
+            _check_displacement_scale(values, unit, table, name, notes)
         canonical, (scale, offset) = _UNITS[role][0], _UNITS[role][1][unit]
         if (scale, offset) != (1.0, 0.0):
             values = values * scale + offset
@@ -411,6 +414,30 @@ def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLi
         notes.append(f"ignored {len(unnamed)} column(s) not named in the manifest: {shown}")
     frame = pd.DataFrame(data, index=pd.Index(time_s, name=TIME_INDEX))
     return Recording(frame, channels, source=table, notes=notes)
+
+
+class PlausibilityWarning(UserWarning):
+    """A value range that is possible but suggests a wrong unit; the recording still loads."""
+
+
+# Thermal drift of a machine tool spans roughly 1 to 500 µm over a recording.
+_MM_LIKE_UM = 0.5      # µm: a smaller whole range labelled um looks like mm
+_UM_LIKE_MM = 5.0      # mm: a larger whole range labelled mm looks like µm
+
+
+def _check_displacement_scale(values: np.ndarray, unit: str, file: str, column: str, notes: list[str]) -> None:
+    """Warn (and note) when a displacement range looks like the other unit; valid files still load."""
+    span = float(np.ptp(values))
+    if unit != "mm" and span < _MM_LIKE_UM:
+        text = (f"{file}: column {column!r}: displacement spans only {span:g} {unit}; thermal drift is usually "
+                f"1 to 500 µm: is it in mm? (then write unit: mm)")
+    elif unit == "mm" and span > _UM_LIKE_MM:
+        text = (f"{file}: column {column!r}: displacement spans {span:g} mm; thermal drift is usually "
+                f"below 0.5 mm: is it in µm? (then write unit: um)")
+    else:
+        return
+    notes.append(f"warning: {text}")
+    warnings.warn(text, PlausibilityWarning, stacklevel=3)
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -438,11 +465,12 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _c
 
 def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manifest:
     file = str(path)
+    if not Path(path).exists():
+        raise InputError("manifest file not found", file=file,
+                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml")
+    limits.check_manifest_file(Path(path))
     try:
         text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError("manifest file not found", file=file,
-                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise InputError(f"cannot read the manifest ({type(exc).__name__})", file=file,
                          hint="the manifest must be a UTF-8 YAML file") from None
@@ -484,6 +512,9 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
     channels: dict[str, tuple[str, str | None, dict[str, Any]]] = {}
     for key, spec in channels_doc.items():
         column = str(key).strip()
+        if column in channels:
+            raise InputError(f"two channel keys name column {column!r} once surrounding spaces are removed",
+                             file=file, column=column, hint="give each column one entry, spelled as in the header")
         if column == time_col:
             raise InputError("the time column is also listed as a channel", file=file, column=column,
                              hint="remove it from 'channels'")
@@ -550,13 +581,12 @@ def _read_table(path: Path, sheet: str | None) -> tuple[list[str], pd.DataFrame,
     """Header names and the data rows (columns numbered 0..n-1) of a CSV, Parquet or XLSX table."""
     file = str(path)
     suffix = path.suffix.lower()
+    if path.is_dir():
+        limits.check_path(path, "table")
     if suffix not in _TABLE_SUFFIXES:
         raise InputError(f"unsupported table type {suffix or '(no suffix)'!r}", file=file,
                          hint="save the table as .csv, .parquet or .xlsx")
-    if not path.is_file():
-        raise InputError("table file not found", file=file, hint="check the path")
-    if path.stat().st_size == 0:
-        raise InputError("empty file", file=file, hint="export the table again with a header and data rows")
+    limits.check_table_file(path)  # bounded time and memory before pandas reads anything
     note = None
     if suffix == ".csv":
         header, body = _read_csv(path)
