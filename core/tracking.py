@@ -3,7 +3,8 @@
 Tags on every job run: ``dataset``, ``selector``, ``model``, ``optimizer``, ``split``, ``ablation`` (so the
 MLflow UI groups and compares them). Metric names: ``test/<metric>`` (mean over displacement channels),
 ``test/<channel>/<metric>``, ``baseline/<name>/test/<metric>``, ``trial/value`` and ``trial/best`` per trial,
-all in µm except R², explained variance, VAF (%), relative error (%) and compensation rate.
+all in µm except R², explained variance, VAF (%), relative error (%) and compensation rate; ``efficiency/train_s``,
+``efficiency/latency_batch_ms``, ``efficiency/latency_stream_ms`` (ms per sample) and ``efficiency/n_parameters``.
 """
 
 from __future__ import annotations
@@ -106,6 +107,8 @@ def log_result(result, params: dict[str, Any]) -> None:
         ref = metrics[metric_key("baseline", base, "test", "rmse")]
         if ref > 0:
             metrics[metric_key("skill_vs", base)] = 1.0 - metrics["test/rmse"] / ref
+    for key in result.folds[-1].efficiency:  # S3 Table 14: training s, latency ms per sample, parameter count
+        metrics[metric_key("efficiency", key)] = float(np.mean([f.efficiency.get(key, np.nan) for f in result.folds]))
     mlflow.log_metrics({k: v for k, v in metrics.items() if np.isfinite(v)})
     mlflow.log_params({f"best/{k}": _short(v) for k, v in result.best_params.items()})
     with tempfile.TemporaryDirectory() as tmp:
