@@ -50,9 +50,11 @@ def test_report_holds_s3s_tables_and_a_figure():
     assert list(quality.index) == ["default", "tuned"]
     assert {"davies_bouldin", "silhouette", "bwp", "fitness"} <= set(quality.columns)
     assert quality.loc["tuned", "fitness"] >= quality.loc["default", "fitness"]
-    conv = sel.report_["convergence"]
+    conv = sel.report_["convergence"]["best_fitness"]
     assert len(conv) == 6 and conv.is_monotonic_increasing
-    assert len(sel.figure().axes) == 2
+    assert set(sel.report_["best_params"].columns) == set(sel.best_params_)
+    assert all(isinstance(t, pd.DataFrame) for t in sel.report_.values())
+    assert len(sel.report_figures()["hdbscan_pso.png"].axes) == 2
 
 
 def test_s3s_pso_is_the_default_tuner():

@@ -15,8 +15,8 @@ S3 runs 100 iterations (2,000 trials); the default here is 25 iterations (500 tr
 
 After ``fit``, ``report_`` holds the tables of S3's selection study: ``clusters`` (members and |r| by Pearson,
 Spearman and Kendall, with each ranking), ``quality`` (Davies-Bouldin, silhouette and BWP of scikit-learn's
-default HDBSCAN against the tuned one), ``convergence`` (best fitness after each iteration) and ``best_params``;
-:meth:`figure` draws them.
+default HDBSCAN against the tuned one), ``convergence`` (best fitness after each iteration) and ``best_params``,
+all DataFrames; :meth:`report_figures` draws them (the selector-report convention that the job logs to MLflow).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ class HDBSCANPSO(Selector):
             self.labels_ = np.zeros(len(names), dtype=int)
             self.best_params_, self.fitness_ = {}, _fitness(points, self.labels_, target)
             self.report_ = {"clusters": _cluster_table(names, points, self.labels_, target), "quality": pd.DataFrame(),
-                            "convergence": pd.Series(dtype=float), "best_params": {}}
+                            "convergence": pd.DataFrame({"best_fitness": []}), "best_params": pd.DataFrame()}
             return names
         study = self._tune(points, target)
         self.best_params_ = dict(study.best_params)
@@ -81,8 +81,8 @@ class HDBSCANPSO(Selector):
             "clusters": clusters,
             "quality": pd.DataFrame({"default": _quality(points, default_labels, target),
                                      "tuned": _quality(points, self.labels_, target)}).T,
-            "convergence": _convergence(study, self._population()),
-            "best_params": self.best_params_,
+            "convergence": _convergence(study, self._population()).to_frame(),
+            "best_params": pd.DataFrame([self.best_params_], index=pd.Index(["tuned"], name="clustering")),
         }
         if clusters.empty:  # every sensor is noise under every tried setting
             return names
@@ -121,8 +121,8 @@ class HDBSCANPSO(Selector):
         return study
 
     # ------------------------------------------------------------------------------------------------ report
-    def figure(self):
-        """Cluster ranking and convergence of the inner search, as a matplotlib Figure (outside pyplot)."""
+    def report_figures(self) -> dict:
+        """``{"hdbscan_pso.png": Figure}``: cluster ranking and the inner search's convergence (outside pyplot)."""
         from matplotlib.figure import Figure
 
         fig = Figure(figsize=(10, 3.6))
@@ -136,12 +136,12 @@ class HDBSCANPSO(Selector):
         left.set_ylabel("|correlation| with the error")
         left.set_title("clusters (sensors)")
         left.legend(fontsize=7)
-        conv = self.report_["convergence"]
+        conv = self.report_["convergence"]["best_fitness"]
         right.plot(conv.index, conv.to_numpy(), marker="o", ms=3)
         right.set_xlabel("iteration")
         right.set_ylabel("best fitness (|Pearson r|)")
         right.set_title(f"{self.optimizer} on HDBSCAN's hyper-parameters")
-        return fig
+        return {"hdbscan_pso.png": fig}
 
 
 # ---------------------------------------------------------------------------------------------------- helpers
