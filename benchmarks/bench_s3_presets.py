@@ -22,6 +22,7 @@ from pathlib import Path
 METRICS = ["rmse", "mse", "mae", "r2", "explained_variance", "vaf"]
 EFFICIENCY = ["train_s", "latency_batch_ms", "latency_stream_ms", "n_parameters"]
 ARM_NAMES = {("lstm", "sho"): "sho_lstm"}
+BASELINES = ("mlr", "transfer_function")  # evaluated beside every arm on the same held-out rows
 
 
 def children(uri: str):
@@ -49,7 +50,7 @@ def frame(runs):
         row = {"arm": arm, "protocol": t.get("protocol"), "split": t.get("split"), "ablation": t.get("ablation"),
                "status": r.info.status}
         row.update({k: m.get(f"test/{k}") for k in METRICS})
-        row.update({f"mlr {k}": m.get(f"baseline/mlr/test/{k}") for k in ("rmse",)})
+        row.update({f"{b} rmse": m.get(f"baseline/{b}/test/rmse") for b in BASELINES})
         row.update({k: m.get(f"efficiency/{k}") for k in EFFICIENCY})
         rows.append(row)
     return pd.DataFrame(rows)
@@ -57,13 +58,15 @@ def frame(runs):
 
 def print_rbmox(df) -> None:
     for protocol, part in df.groupby("protocol"):
-        table = part.set_index("arm")[METRICS + ["mlr rmse"]].sort_values("rmse")
+        table = part.set_index("arm")[METRICS + [f"{b} rmse" for b in BASELINES]].sort_values("rmse")
         print(f"\nS3 Table 13/15 analogue, protocol={protocol} (split {part['split'].iloc[0]}), µm")
         print(table.to_string(float_format="%.4f"))
         if "dltk" in table.index:
             dltk = table.loc["dltk", "rmse"]
             red = {b: 100 * (1 - dltk / table.loc[b, "rmse"]) for b in ("bp", "lstm", "tcn_lstm") if b in table.index}
-            red["mlr (baseline)"] = 100 * (1 - dltk / table.loc["dltk", "mlr rmse"])
+            for b in BASELINES:
+                if table.loc["dltk", f"{b} rmse"] == table.loc["dltk", f"{b} rmse"]:  # not NaN: it was run
+                    red[f"{b} (baseline)"] = 100 * (1 - dltk / table.loc["dltk", f"{b} rmse"])
             print("DLTK's RMSE reduction %: " + ", ".join(f"vs {k} {v:.1f}" for k, v in red.items()))
     honest = df[df["protocol"] == "honest"].set_index("arm")[EFFICIENCY]
     print("\nS3 Table 14 analogue (honest-split jobs): training s, latency ms per sample, parameters")
