@@ -25,6 +25,7 @@ import contextlib
 import hashlib
 import json
 import warnings
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -33,7 +34,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import registry, search_space, splits, training
+from thermodrift.core import efficiency, registry, search_space, splits, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -95,6 +96,7 @@ class FoldResult:
     trials_before: int = 0  # finished trials found in the storage before this run
     model: Any = None  # refit on this fold's training part
     selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
+    efficiency: dict[str, float] = field(default_factory=dict)  # the refit model's costs (core/efficiency.py)
 
 
 @dataclass
@@ -273,16 +275,19 @@ class Job:
 
         preds: dict[str, np.ndarray] = {}
         model = None
+        cost: dict[str, float] = {}
         for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
+            started = time.perf_counter()
             m = self._model(name, params).fit(inputs(name).iloc[fold.train], y_all.iloc[fold.train])
+            fit_s = time.perf_counter() - started
             preds[who] = predict_rows(m, inputs(name), fold.test)
             if who == "model":
-                model = m
+                model, cost = m, efficiency.measure(m, inputs(name), fold.test, fit_s)
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
                           {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
                           best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
-                          selector=selector)
+                          selector=selector, efficiency=cost)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")

@@ -8,6 +8,8 @@ predictions equal a baseline's. Metric names: ``test/<metric>`` (mean over displ
 ``test/<channel>/<metric>``, ``baseline/<name>/test/<metric>``, ``baseline/<name>/test/<channel>/rmse``,
 ``trial/value`` and ``trial/best`` per trial (``fold<k>/trial/...`` with several folds), all in µm except R²,
 explained variance, VAF (%), relative error (%) and compensation rate.
+Efficiency metrics per job: ``efficiency/train_s``, ``efficiency/latency_batch_ms``, ``efficiency/latency_stream_ms``
+(ms per sample) and ``efficiency/n_parameters``.
 """
 
 from __future__ import annotations
@@ -155,6 +157,8 @@ def log_result(result, params: dict[str, Any]) -> None:
         ref = metrics[metric_key("baseline", base, "test", "rmse")]
         if ref > 0:
             metrics[metric_key("skill_vs", base)] = 1.0 - metrics["test/rmse"] / ref
+    for key in result.folds[-1].efficiency:  # S3 Table 14: training s, latency ms per sample, parameter count
+        metrics[metric_key("efficiency", key)] = float(np.mean([f.efficiency.get(key, np.nan) for f in result.folds]))
     mlflow.log_metrics({k: v for k, v in metrics.items() if np.isfinite(v)})
     mlflow.log_params({f"best/{k}": _short(v) for k, v in result.best_params.items()})
     with tempfile.TemporaryDirectory() as tmp:
