@@ -19,7 +19,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import registry, search_space, splits, training
+from thermodrift.core import registry, resume, search_space, splits, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -132,6 +132,7 @@ class Job:
         search_space.distributions(space)  # a malformed space fails here, before any trial
 
         def objective(trial: optuna.Trial) -> float:
+            resume.claim(trial)
             params = {**spec.model_params, **search_space.suggest(trial, space)}
             model = self._model(spec.model, params)
             try:
@@ -153,7 +154,8 @@ class Job:
         optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
         torch.set_num_threads(spec.threads)
         study = self._study()
-        done = sum(t.state in FINISHED for t in study.trials)
+        resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+        done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
         budget = 1 if not space else spec.n_trials
         if done < budget:
             study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),

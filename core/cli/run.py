@@ -18,7 +18,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import registry, tracking
+from thermodrift.core import registry, resume, tracking
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -38,6 +38,7 @@ class Lifecycle(tracking.SweepRun):
         if config.optuna.storage:  # create the schema once, before parallel jobs race to create it
             Job.storage(config.optuna.storage)
         super().on_multirun_start(config, **kwargs)
+        mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
 
 
 def spec_from_config(cfg: DictConfig) -> JobSpec:
@@ -68,7 +69,13 @@ def _task(cfg: DictConfig) -> float | None:
     names = {"dataset": spec.dataset, "selector": spec.selector, "model": spec.model,
              "optimizer": spec.optimizer, "split": spec.split}
     run_name = f"{spec.model} · {spec.optimizer} · {spec.selector} · {spec.dataset} · {spec.split}"
-    with tracking.start_job_run(run_name, tracking.job_tags(names, cfg.ablation, "pending")) as run:
+    study_name = spec.study_name or spec.default_study_name()
+    tags = {**tracking.job_tags(names, cfg.ablation, "pending"), resume.STUDY_TAG: study_name,
+            resume.OWNER_ATTR: resume.owner()}
+    with tracking.start_job_run(run_name, tags) as run:
+        killed = resume.close_dead_runs(mlflow.MlflowClient(), run.info.experiment_id, study_name)
+        if killed:  # this job resumes the study of a killed job
+            mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
         try:
             result = Job(spec, callbacks=[tracking.TrialLogger(run.info.run_id)]).run()
         except (InputError, PluginError) as exc:
