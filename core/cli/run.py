@@ -8,9 +8,11 @@ Each invocation gets a unique id (``THERMODRIFT_SWEEP_ID``) used for its output 
 from __future__ import annotations
 
 import datetime
+import json
 import os
 import sys
 import uuid
+from pathlib import Path
 
 import hydra
 import mlflow
@@ -18,7 +20,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import registry, resume, tracking
+from thermodrift.core import registry, resume, tracking, tracking_faults
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -33,10 +35,28 @@ class Lifecycle(tracking.SweepRun):
     def on_run_start(self, config, **kwargs) -> None:
         _STATE["composed"] = True
 
+    def on_multirun_end(self, config, **kwargs) -> None:
+        try:
+            super().on_multirun_end(config, **kwargs)
+        except tracking_faults.FAILURES as exc:
+            jobs = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
+                    for p in Path(config.hydra.sweep.dir).glob("*/job.json")}
+            done = sorted((k for k, v in jobs.items() if v["completed"]), key=int)
+            print(f"thermodrift: error: the grid ended but the MLflow tracking server at {config.tracking.uri} "
+                  f"stopped answering ({' '.join(str(exc).split())[:160]}); jobs completed and logged: "
+                  f"{', '.join(done) or 'none'} of {len(jobs)}; every study is kept in {config.optuna.storage} "
+                  "(run the same grid again once the server is back)", file=sys.stderr)
+            raise SystemExit(2) from None
+
     def on_multirun_start(self, config, **kwargs) -> None:
         _STATE["composed"] = True
         if config.optuna.storage:  # create the schema once, before parallel jobs race to create it
             Job.storage(config.optuna.storage)
+        try:
+            tracking_faults.check(config.tracking.uri)
+        except InputError as exc:
+            print(f"thermodrift: error: {exc}", file=sys.stderr)
+            raise SystemExit(2) from None
         super().on_multirun_start(config, **kwargs)
         mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
 
@@ -65,7 +85,30 @@ def _task(cfg: DictConfig) -> float | None:
         spec = spec_from_config(cfg)
     except (InputError, PluginError, KeyError) as exc:
         return _bad_input(exc, multirun)
-    tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
+    study_name = spec.study_name or spec.default_study_name()
+    try:
+        tracking_faults.check(cfg.tracking.uri)
+        tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
+        value = _job(cfg, spec, multirun)
+    except InputError as exc:  # the server was down when this job started
+        _record_job(study_name, None)
+        return _bad_input(exc, multirun)
+    except tracking_faults.FAILURES as exc:
+        _drop_active_runs()
+        value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
+    _record_job(study_name, value)
+    return value
+
+
+def _record_job(study_name: str, value: float | None) -> None:
+    """``job.json`` in the job's output folder: whether it completed, so a grid can say what did."""
+    folder = Path(HydraConfig.get().runtime.output_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "job.json").write_text(json.dumps({"study": study_name, "completed": value is not None,
+                                                 "best_value": value}), encoding="utf-8")
+
+
+def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
     names = {"dataset": spec.dataset, "selector": spec.selector, "model": spec.model,
              "optimizer": spec.optimizer, "split": spec.split}
     run_name = f"{spec.model} · {spec.optimizer} · {spec.selector} · {spec.dataset} · {spec.split}"
@@ -76,12 +119,15 @@ def _task(cfg: DictConfig) -> float | None:
         killed = resume.close_dead_runs(mlflow.MlflowClient(), run.info.experiment_id, study_name)
         if killed:  # this job resumes the study of a killed job
             mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
+        trial_log = tracking_faults.BufferedCallback(tracking.TrialLogger(run.info.run_id))
         try:
-            result = Job(spec, callbacks=[tracking.TrialLogger(run.info.run_id)]).run()
+            result = Job(spec, callbacks=[trial_log]).run()
         except (InputError, PluginError) as exc:
             mlflow.set_tag("error", str(exc)[:5000])
             mlflow.end_run(status="FAILED")
             return _bad_input(exc, multirun)
+        if not trial_log.flush(result.study):
+            trial_log.inner(result.study, trial_log.pending[0])  # raises the server's error
         mlflow.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
     table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
@@ -89,6 +135,19 @@ def _task(cfg: DictConfig) -> float | None:
           f"held-out ({'; '.join(f.name for f in result.folds)}), µm:\n{table.to_string(float_format='%.3f')}\n"
           f"MLflow run {run.info.run_id} at {cfg.tracking.uri}")
     return float(result.study.best_value)
+
+
+def _drop_active_runs() -> None:
+    """Forget the runs this process has open after the server went away (ending them would fail too); the
+    next job of the same study closes them as KILLED."""
+    while mlflow.active_run() is not None:
+        try:
+            mlflow.end_run(status="FAILED")
+        except tracking_faults.FAILURES:
+            from mlflow.tracking import fluent
+
+            stack = fluent._active_run_stack.get()  # mlflow has no public way to drop a run it cannot end
+            stack.pop()
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
