@@ -14,14 +14,25 @@ import os
 import urllib.error
 import urllib.request
 
-import requests
-from mlflow.exceptions import MlflowException
-
 from thermodrift.core.errors import InputError
 
 CHECK_TIMEOUT_S = 3.0
-# What a client call raises when the server is unreachable or answers with an error page.
-FAILURES = (MlflowException, requests.exceptions.RequestException, ConnectionError, TimeoutError)
+
+
+def failures() -> tuple[type[BaseException], ...]:
+    """What an MLflow client call raises when the server is unreachable or answers with an error page
+    (imported on use: ``thermodrift run`` checks the server before it imports MLflow)."""
+    import requests
+    from mlflow.exceptions import MlflowException
+
+    return MlflowException, requests.exceptions.RequestException, ConnectionError, TimeoutError
+
+
+def precheck(overrides: list[str]) -> None:
+    """Check a ``tracking.uri=http...`` given on the command line before the slow imports of a run."""
+    uris = [o.split("=", 1)[1] for o in overrides if o.lstrip("+").startswith("tracking.uri=")]
+    if uris:
+        check(uris[-1])
 
 
 def is_remote(uri: str | None) -> bool:
@@ -75,7 +86,7 @@ class BufferedCallback:
         while self.pending:
             try:
                 self.inner(study, self.pending[0])
-            except FAILURES:
+            except failures():
                 return False
             self.pending.pop(0)
         return True

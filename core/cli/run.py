@@ -38,7 +38,7 @@ class Lifecycle(tracking.SweepRun):
     def on_multirun_end(self, config, **kwargs) -> None:
         try:
             super().on_multirun_end(config, **kwargs)
-        except tracking_faults.FAILURES as exc:
+        except tracking_faults.failures() as exc:
             jobs = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
                     for p in Path(config.hydra.sweep.dir).glob("*/job.json")}
             done = sorted((k for k, v in jobs.items() if v["completed"]), key=int)
@@ -93,7 +93,7 @@ def _task(cfg: DictConfig) -> float | None:
     except InputError as exc:  # the server was down when this job started
         _record_job(study_name, None)
         return _bad_input(exc, multirun)
-    except tracking_faults.FAILURES as exc:
+    except tracking_faults.failures() as exc:
         _drop_active_runs()
         value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
     _record_job(study_name, value)
@@ -143,7 +143,7 @@ def _drop_active_runs() -> None:
     while mlflow.active_run() is not None:
         try:
             mlflow.end_run(status="FAILED")
-        except tracking_faults.FAILURES:
+        except tracking_faults.failures():
             from mlflow.tracking import fluent
 
             stack = fluent._active_run_stack.get()  # mlflow has no public way to drop a run it cannot end
