@@ -32,6 +32,8 @@ _HOOKS = {
     "dataset": "thermodrift_register_datasets",
     "mechanism": "thermodrift_register_mechanisms",
 }
+# What a plugin may raise while loading without stopping the others: anything but KeyboardInterrupt.
+_PLUGIN_FAULTS = (Exception, SystemExit, GeneratorExit)
 # The Hydra config group that configures each kind (conf/<group>/<name>.yaml).
 CONFIG_GROUPS = {"selector": "selector", "model": "model", "optimizer": "optimizer", "dataset": "dataset"}
 
@@ -128,7 +130,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
             module = ep.load()
             manager.register(module, name=name)
             manager.check_pending()  # a misspelled hook fails this plugin only
-        except Exception as exc:  # a broken third-party distribution must not stop the rest
+        except _PLUGIN_FAULTS as exc:  # a broken third-party distribution must not stop the rest
             if manager.get_plugin(name) is not None:
                 manager.unregister(name=name)
             registry.failures[key] = _one_line(exc)
@@ -144,7 +146,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
                 impl(registry=registry)
             except DuplicateComponentError:
                 raise
-            except Exception as exc:  # same rule as for import failures
+            except _PLUGIN_FAULTS as exc:  # same rule as for import failures
                 registry.failures[key] = _one_line(exc)
     registry._origin = registry._module = "<unknown>"
     return registry

@@ -19,7 +19,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import registry, resume, search_space, splits, training
+from thermodrift.core import registry, resume, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -158,7 +158,7 @@ class Job:
         done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
         budget = 1 if not space else spec.n_trials
         if done < budget:
-            study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
+            study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
                            callbacks=self.callbacks, show_progress_bar=spec.progress)
         complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
         if not complete:

@@ -20,7 +20,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import registry, resume, tracking, tracking_faults
+from thermodrift.core import registry, resume, tracking, tracking_faults, trial_faults
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -86,6 +86,7 @@ def _task(cfg: DictConfig) -> float | None:
     except (InputError, PluginError, KeyError) as exc:
         return _bad_input(exc, multirun)
     study_name = spec.study_name or spec.default_study_name()
+    trial_faults.log_to(HydraConfig.get().runtime.output_dir)
     try:
         tracking_faults.check(cfg.tracking.uri)
         tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
@@ -190,6 +191,8 @@ def main(overrides: list[str]) -> int:
 
     register()
     reg = registry.default()
+    for plugin, error in reg.failures.items():  # `thermodrift plugins` lists them too
+        print(f"thermodrift: warning: plugin {plugin} failed to load and is left out: {error}", file=sys.stderr)
     extra = []
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
         extra = [f"hydra.searchpath=[{','.join(reg.searchpaths)}]"]
