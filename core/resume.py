@@ -101,3 +101,18 @@ def close_dead_runs(client, experiment_id: str, study_name: str | None = None) -
         if study_name is not None and tags.get(STUDY_TAG) == study_name:
             resumed.append(run.info.run_id)
     return resumed
+
+
+class StudyBudget:
+    """Optuna callback: stop this worker once the study holds ``budget`` finished trials (killed ones aside),
+    whichever workers ran them."""
+
+    def __init__(self, budget: int):
+        self.budget = budget
+
+    def __call__(self, study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
+        finished = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,
+                                                            optuna.trial.TrialState.PRUNED,
+                                                            optuna.trial.TrialState.FAIL))
+        if sum(not was_killed(t) for t in finished) >= self.budget:
+            study.stop()

@@ -19,7 +19,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import registry, resume, search_space, splits, trial_faults, training
+from thermodrift.core import registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -157,9 +157,11 @@ class Job:
         resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
         done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
         budget = 1 if not space else spec.n_trials
-        if done < budget:
-            study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
-                           callbacks=self.callbacks, show_progress_bar=spec.progress)
+        if done < budget:  # other workers on the same study count too: the budget is the study's
+            study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
+                           catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
+                           show_progress_bar=spec.progress)
+        resume.fail_dead_trials(study)  # a worker killed while this one ran
         complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
         if not complete:
             reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason") for t in study.trials}
@@ -196,9 +198,11 @@ class Job:
     def storage(url: str) -> optuna.storages.RDBStorage:
         """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
         killed run as failed instead of running forever."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        def create() -> optuna.storages.RDBStorage:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        return schema.retrying(create, url)  # workers that start together on a new database
 
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
@@ -209,8 +213,9 @@ class Job:
         sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
                                           **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
-        return optuna.create_study(study_name=spec.study_name or spec.default_study_name(), storage=storage,
-                                   sampler=sampler, direction="minimize", load_if_exists=True)
+        return schema.retrying(lambda: optuna.create_study(
+            study_name=spec.study_name or spec.default_study_name(), storage=storage, sampler=sampler,
+            direction="minimize", load_if_exists=True), spec.storage)
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:

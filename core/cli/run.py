@@ -20,7 +20,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import registry, resume, tracking, tracking_faults, trial_faults
+from thermodrift.core import registry, resume, schema, tracking, tracking_faults, trial_faults
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -57,7 +57,8 @@ class Lifecycle(tracking.SweepRun):
         except InputError as exc:
             print(f"thermodrift: error: {exc}", file=sys.stderr)
             raise SystemExit(2) from None
-        super().on_multirun_start(config, **kwargs)
+        with schema.exclusive(config.tracking.uri):
+            super().on_multirun_start(config, **kwargs)
         mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
 
 
@@ -89,7 +90,7 @@ def _task(cfg: DictConfig) -> float | None:
     trial_faults.log_to(HydraConfig.get().runtime.output_dir)
     try:
         tracking_faults.check(cfg.tracking.uri)
-        tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
+        schema.retrying(lambda: tracking.setup(cfg.tracking.uri, cfg.tracking.experiment), cfg.tracking.uri)
         value = _job(cfg, spec, multirun)
     except InputError as exc:  # the server was down when this job started
         _record_job(study_name, None)
