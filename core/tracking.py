@@ -17,13 +17,14 @@ from pathlib import Path
 from typing import Any
 
 import mlflow
-import mlflow.sklearn
 import numpy as np
 import optuna
 import pandas as pd
 from hydra.experimental.callback import Callback
 from mlflow.entities import Metric
 from mlflow.tracking import MlflowClient
+
+from thermodrift.core import artifacts
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
@@ -35,7 +36,6 @@ def setup(uri: str | None, experiment: str) -> str:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)
-    logging.getLogger("mlflow.sklearn").setLevel(logging.ERROR)  # the cloudpickle caution: chosen knowingly
     uri = uri or DEFAULT_URI
     mlflow.set_tracking_uri(uri)
     if mlflow.get_experiment_by_name(experiment) is None and uri.startswith("sqlite:///"):
@@ -115,10 +115,8 @@ def log_result(result, params: dict[str, Any]) -> None:
         for fig_name, fig in figures(result).items():
             fig.savefig(tmp_path / fig_name, dpi=110, bbox_inches="tight")
             mlflow.log_artifact(str(tmp_path / fig_name), artifact_path="figures")
-    # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
-    # refuses estimator classes it does not know, and every plugin model is one.
-    mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
-                             pip_requirements=["thermodrift"])
+    # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
+    artifacts.log_model(result.model, result.spec.model)
 
 
 def comparison(result) -> pd.DataFrame:
