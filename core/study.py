@@ -1,13 +1,26 @@
-"""One job: recording → split → select sensors → Optuna study tunes the model → refit → evaluate vs baselines.
+"""One job: recording → split → per fold: select sensors → Optuna study tunes the model → refit → evaluate vs
+baselines.
 
-The study tunes on an inner validation fold inside the training part (``splits.inner_fold``), so the held-out
-part is touched once, by the refit best model and by the persistence and MLR baselines beside it.
-Failed trials are recorded as FAIL and the study goes on; a re-run with the same storage resumes and keeps
-completed trials (only the missing number of trials is run).
+What is true for every honest split (``Split.protocol == "honest"``): everything that produces a fold's held-out
+prediction sees only that fold's training rows. Per fold (nested), the selector is fitted on the training part,
+the study tunes on an inner validation fold inside it (``splits.inner_fold``), models scale inside their own
+``fit``, and the best parameters are refitted on the training part. So the held-out part is touched once, by the
+refit model and the persistence and MLR baselines beside it. A model with history (``history_length != 0``)
+gets, for each contiguous block of rows it predicts, the input rows just before the block as ``history``
+(held-out: every earlier input row, as a controller would have them; inner validation: the training rows just
+before it); measured targets never reach a prediction except through ``lag1:`` columns of models that declare
+``uses_target_history`` (the persistence reference). A paper protocol (``shuffled``) runs the same code and is
+labelled ``"paper"``: its rows leak by construction.
+
+One Optuna study per fold: a single-fold split keeps the plain study name, fold k of n adds ``-fold<k>of<n>``;
+``n_trials`` is the budget of each fold's study. Failed trials are recorded as FAIL and the study goes on; a
+re-run with the same storage resumes and keeps completed trials (only the missing number of trials is run).
+``n_trials=0`` runs no study: the model is refitted on its defaults (``model_params``), untuned.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import warnings
@@ -64,25 +77,52 @@ class JobSpec:
 
 @dataclass
 class FoldResult:
-    """Held-out predictions and metrics (µm) of the model and baselines on one fold."""
+    """One fold: what was selected and tuned on its training part, and the held-out predictions and metrics (µm)
+    of the refit model and the baselines. ``study`` is None when ``n_trials=0`` (untuned)."""
 
     name: str
     time_s: np.ndarray
     y_true: pd.DataFrame
     predictions: dict[str, np.ndarray]  # "model" and each baseline name -> (n, k) µm
     metrics: dict[str, dict[str, dict[str, float]]]  # same keys -> channel -> metric -> value
+    selected: list[str] = field(default_factory=list)
+    best_params: dict[str, Any] = field(default_factory=dict)
+    valid_rmse: float = float("nan")  # the inner validation RMSE (µm) of best_params
+    study: optuna.Study | None = None
+    trials_before: int = 0  # finished trials found in the storage before this run
+    model: Any = None  # refit on this fold's training part
 
 
 @dataclass
 class JobResult:
+    """Every fold's result; ``study``, ``selected``, ``best_params`` and ``model`` are the last fold's (for
+    forward chaining, the one trained on the most data)."""
+
     spec: JobSpec
-    study: optuna.Study
-    selected: list[str]
-    best_params: dict[str, Any]
     folds: list[FoldResult]
-    model: Any  # refit on the last fold's training part
     protocol: str
     notes: list[str] = field(default_factory=list)
+
+    @property
+    def study(self) -> optuna.Study | None:
+        return self.folds[-1].study
+
+    @property
+    def selected(self) -> list[str]:
+        return self.folds[-1].selected
+
+    @property
+    def best_params(self) -> dict[str, Any]:
+        return self.folds[-1].best_params
+
+    @property
+    def model(self) -> Any:
+        return self.folds[-1].model
+
+    @property
+    def valid_rmse(self) -> float:
+        """Mean over folds of the inner validation RMSE (µm): what a sweep over jobs may minimise."""
+        return float(np.mean([f.valid_rmse for f in self.folds]))
 
     def summary_metrics(self, who: str = "model") -> dict[str, float]:
         """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
@@ -91,15 +131,20 @@ class JobResult:
 
 
 class Job:
-    """Runs a :class:`JobSpec`. ``callbacks`` are Optuna callbacks (e.g. the MLflow trial logger)."""
+    """Runs a :class:`JobSpec`. ``callbacks`` are Optuna callbacks (e.g. the MLflow trial logger); ``say`` gets
+    one-line messages for the person running it (a resumed study's counts)."""
 
-    def __init__(self, spec: JobSpec, callbacks: list[Callable] | None = None):
+    def __init__(self, spec: JobSpec, callbacks: list[Callable] | None = None,
+                 say: Callable[[str], None] | None = None):
         self.spec = spec
         self.callbacks = list(callbacks or [])
+        self.say = say or (lambda line: None)
 
     def run(self, recording=None) -> JobResult:
         """Run the job on ``recording`` (default: the spec's dataset from the registry)."""
         spec = self.spec
+        if spec.n_trials < 0:
+            raise InputError(f"n_trials must be 0 (untuned) or more, got {spec.n_trials}")
         if recording is None:
             recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
         targets = self._targets(recording)
@@ -108,80 +153,99 @@ class Job:
         features = [c for role in spec.input_roles for c in recording.columns(role)]
         if not features:
             raise InputError(f"{recording.source}: no input channel with roles {list(spec.input_roles)}")
-        X_all = recording.data[features]
-        y_all = recording.data[targets]
-
-        tune = folds[-1]
-        selector = registry.create("selector", spec.selector,
-                                   **_with_seed(registry.get("selector", spec.selector).factory,
-                                                spec.selector_params, spec.seed))
-        selected = selector.fit(X_all.iloc[tune.train], y_all.iloc[tune.train]).selected_
-        frames: dict[str, pd.DataFrame] = {}
-
-        def inputs(model_name: str, rows: np.ndarray) -> pd.DataFrame:
-            if model_name not in frames:
-                cls = registry.get("model", model_name).factory
-                frames[model_name] = model_inputs(recording, selected, cls, targets)
-            return frames[model_name].iloc[rows]
-
-        train_rec = recording.select(tune.train)
-        inner = splits.inner_fold(train_rec)
-        inner_train, inner_val = tune.train[inner.train], tune.train[inner.test]
         space = (spec.model_search_space if spec.model_search_space is not None
                  else registry.get("model", spec.model).factory.search_space())
         search_space.distributions(space)  # a malformed space fails here, before any trial
+        optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
+        torch.set_num_threads(spec.threads)
+        base = spec.study_name or spec.default_study_name()
+        results = []
+        for k, fold in enumerate(folds, 1):
+            name = base if len(folds) == 1 else f"{base}-fold{k}of{len(folds)}"
+            results.append(self._fold(recording, fold, features, targets, space, name))
+        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])))
+
+    def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
+              study_name: str) -> FoldResult:
+        """Select, tune, refit and evaluate on one fold; only ``fold.train`` rows reach selection and tuning."""
+        spec = self.spec
+        y_all = recording.data[targets]
+        selector = registry.create("selector", spec.selector,
+                                   **_with_seed(registry.get("selector", spec.selector).factory,
+                                                spec.selector_params, spec.seed))
+        selected = selector.fit(recording.data[features].iloc[fold.train], y_all.iloc[fold.train]).selected_
+        frames: dict[str, pd.DataFrame] = {}
+
+        def inputs(model_name: str) -> pd.DataFrame:
+            if model_name not in frames:
+                cls = registry.get("model", model_name).factory
+                frames[model_name] = model_inputs(recording, selected, cls, targets)
+            return frames[model_name]
+
+        inner = splits.inner_fold(recording.select(fold.train))
+        inner_train, inner_val = fold.train[inner.train], fold.train[inner.test]
+
+        def validate(params: dict, trial: optuna.Trial | None = None) -> float:
+            model = self._model(spec.model, params)
+            with training.reporting(trial) if trial is not None else contextlib.nullcontext():
+                model.fit(inputs(spec.model).iloc[inner_train], y_all.iloc[inner_train])
+            pred = predict_rows(model, inputs(spec.model), inner_val, allowed=fold.train)
+            rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
+            if trial is not None:
+                report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
+                for key, value in (report.metrics() if report is not None else {}).items():
+                    trial.set_user_attr(f"train/{key}", value)
+            return rmse
 
         def objective(trial: optuna.Trial) -> float:
             resume.claim(trial)
-            params = {**spec.model_params, **search_space.suggest(trial, space)}
-            model = self._model(spec.model, params)
             try:
-                with training.reporting(trial):
-                    model.fit(inputs(spec.model, inner_train), y_all.iloc[inner_train])
+                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial)
             except training.DivergedError as exc:
                 trial.set_user_attr("diverged", True)
                 trial.set_user_attr("fail_reason", str(exc))
                 raise
-            pred = model.predict(inputs(spec.model, inner_val))
-            rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
             if not np.isfinite(rmse):
                 raise ValueError(f"validation RMSE is {rmse}")
-            report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
-            for key, value in (report.metrics() if report is not None else {}).items():
-                trial.set_user_attr(f"train/{key}", value)
             return rmse
 
-        optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
-        torch.set_num_threads(spec.threads)
-        study = self._study()
-        resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
-        done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
-        budget = 1 if not space else spec.n_trials
-        if done < budget:  # other workers on the same study count too: the budget is the study's
-            study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
-                           catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
-                           show_progress_bar=spec.progress)
-        resume.fail_dead_trials(study)  # a worker killed while this one ran
-        complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
-        if not complete:
-            reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason") for t in study.trials}
-            raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
-                             f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
-        best = {**spec.model_params, **study.best_params}
+        study, done = None, 0
+        if spec.n_trials == 0:
+            best, valid = dict(spec.model_params), validate(dict(spec.model_params))
+        else:
+            study = self._study(study_name)
+            resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+            done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
+            budget = 1 if not space else spec.n_trials
+            if done:
+                complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+                self.say(f"study {study_name} resumed: {complete} of {budget} trials complete"
+                         f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
+                         f"{max(0, budget - done)} to run")
+            if done < budget:  # other workers on the same study count too: the budget is the study's
+                study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
+                               catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
+                               show_progress_bar=spec.progress)
+            resume.fail_dead_trials(study)  # a worker killed while this one ran
+            complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+            if not complete:
+                reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason")
+                           for t in study.trials}
+                raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
+                                 f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
+            best, valid = {**spec.model_params, **study.best_params}, float(study.best_value)
 
-        results, model = [], None
-        for fold in folds:
-            preds: dict[str, np.ndarray] = {}
-            for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
-                m = self._model(name, params).fit(inputs(name, fold.train), y_all.iloc[fold.train])
-                preds[who] = m.predict(inputs(name, fold.test))
-                if who == "model":
-                    model = m
-            y_test = y_all.iloc[fold.test]
-            results.append(FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
-                                      {who: evaluate(y_test, p) for who, p in preds.items()}))
-        return JobResult(spec, study, selected, best, results, model, split.protocol,
-                         notes=list(getattr(recording, "notes", [])))
+        preds: dict[str, np.ndarray] = {}
+        model = None
+        for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
+            m = self._model(name, params).fit(inputs(name).iloc[fold.train], y_all.iloc[fold.train])
+            preds[who] = predict_rows(m, inputs(name), fold.test)
+            if who == "model":
+                model = m
+        y_test = y_all.iloc[fold.test]
+        return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
+                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selected),
+                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")
@@ -208,14 +272,14 @@ class Job:
         factory = registry.get("model", name).factory
         return registry.create("model", name, **_with_seed(factory, params, self.spec.seed))
 
-    def _study(self) -> optuna.Study:
+    def _study(self, name: str) -> optuna.Study:
         spec = self.spec
         sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
                                           **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
         return schema.retrying(lambda: optuna.create_study(
-            study_name=spec.study_name or spec.default_study_name(), storage=storage, sampler=sampler,
-            direction="minimize", load_if_exists=True), spec.storage)
+            study_name=name, storage=storage, sampler=sampler, direction="minimize", load_if_exists=True),
+            spec.storage)
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
@@ -234,6 +298,28 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
     out.attrs["roles"] = {c: recording.channels[c].role if c in recording.channels else "target_history"
                           for c in out.columns}
     return out
+
+
+def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarray | None = None) -> np.ndarray:
+    """``model``'s predictions (µm) for ``rows`` (sorted positions into ``frame``, the model's inputs for every row
+    of the recording). A model with history gets, for each contiguous block of ``rows``, the input rows just
+    before the block as ``history``: every earlier row, or, with ``allowed``, the unbroken run of ``allowed``
+    rows that ends just before the block."""
+    if getattr(model, "history_length", 0) == 0:
+        return model.predict(frame.iloc[rows])
+    ok = None
+    if allowed is not None:
+        ok = np.zeros(len(frame), dtype=bool)
+        ok[allowed] = True
+    out = []
+    for block in np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1):
+        start = int(block[0])
+        first = 0
+        if ok is not None:
+            gaps = np.flatnonzero(~ok[:start])
+            first = int(gaps[-1]) + 1 if len(gaps) else 0
+        out.append(model.predict(frame.iloc[block], history=frame.iloc[first:start]))
+    return np.concatenate(out)
 
 
 def _with_seed(factory: Callable, params: dict, seed: int) -> dict:

@@ -26,6 +26,7 @@ from thermodrift.testing import (
     check_optimizer,
     check_selector,
     checks,
+    compose_config,
     parameter_sets,
 )
 from thermodrift.testing.dataset_checks import check_returns_recording
@@ -197,9 +198,17 @@ def test_a_sound_model_passes_and_the_report_lists_every_failure():
     assert "failed 1 of 8 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
 
 
-def test_check_component_includes_the_hydra_config():
+def test_a_component_without_yaml_composes_from_its_registry_entry():
     reg = Registry()
     reg.add("model", "unconfigured_linear", _Linear)
-    with pytest.raises(ConformanceError, match=r"check_hydra_config: config model=unconfigured_linear does not "
-                                               r"compose: .*model/unconfigured_linear"):
-        check_component("model", "unconfigured_linear", reg)
+    check_component("model", "unconfigured_linear", reg)  # check_hydra_config included
+    cfg = compose_config(["model=unconfigured_linear", "model.params.scale=2.5"], reg.searchpaths, reg)
+    assert cfg.model.name == "unconfigured_linear" and cfg.model.params.scale == 2.5
+    assert cfg.model.search_space == {}
+
+
+def test_check_component_includes_the_hydra_config():
+    reg = Registry()
+    reg.add("model", "mlr", _BadSearchSpace)  # the shipped conf/model/mlr.yaml tunes alpha, which it lacks
+    with pytest.raises(ConformanceError, match=r"check_hydra_config: .*not constructor parameters"):
+        check_component("model", "mlr", reg)

@@ -12,7 +12,7 @@ from optuna.testing.pytest_samplers import BasicSamplerTestCase, RelativeSampler
 from thermodrift.core import registry
 from thermodrift.testing.suite import parameter_sets
 
-OURS = ["pso", "pso_constriction", "gwo", "fa", "rbmo", "rbmox"]
+OURS = ["pso", "pso_constriction", "gwo", "fa", "rbmo", "rbmox", "sho"]
 REGISTRY = registry.load()
 CONF = Path(__file__).resolve().parents[1] / "conf" / "optimizer"
 
@@ -39,7 +39,7 @@ class TestPopulationSamplers(BasicSamplerTestCase, RelativeSamplerTestCase, Sing
 
 
 @pytest.mark.parametrize("config", ["pso", "pso_constriction", "pso_s1", "pso_s2", "pso_s3", "gwo", "fa", "rbmo",
-                                    "rbmox"])
+                                    "rbmox", "sho"])
 def test_optimizer_configs_build_their_sampler(config):
     spec = yaml.safe_load((CONF / f"{config}.yaml").read_text())
     sampler = REGISTRY.create("optimizer", spec["name"], seed=0, n_trials=50, **spec["params"])

@@ -101,3 +101,17 @@ def test_unknown_split_is_bad_input(reg, rec):
 
     with pytest.raises(InputError, match="unknown split"):
         Job(spec(split="random_rows")).run(rec)
+
+
+def test_each_fold_has_its_own_study_that_resumes(reg, rec, tmp_path):
+    storage = f"sqlite:///{tmp_path / 'optuna.db'}"
+    first = Job(spec(split="forward_chaining", storage=storage, n_trials=2)).run(rec)
+    names = [f.study.study_name for f in first.folds]
+    assert len(names) == 3 and len(set(names)) == 3 and all(n.endswith(f"-fold{k}of3") for k, n in
+                                                            enumerate(names, 1))
+    assert all(len(f.study.trials) == 2 and f.trials_before == 0 for f in first.folds)
+    said = []
+    second = Job(spec(split="forward_chaining", storage=storage, n_trials=3), say=said.append).run(rec)
+    assert [f.study.study_name for f in second.folds] == names
+    assert all(len(f.study.trials) == 3 and f.trials_before == 2 for f in second.folds)
+    assert said == [f"study {n} resumed: 2 of 3 trials complete, 1 to run" for n in names]

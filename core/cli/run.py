@@ -1,7 +1,9 @@
 """``thermodrift run``: the Hydra app. One job = one (dataset, selector, model, optimizer, split) combination.
 
 Configs come from ``pkg://thermodrift.conf`` plus every search path that plugins add through the
-``thermodrift_hydra_searchpaths`` hook (passed as ``hydra.searchpath``, which works in every install mode).
+``thermodrift_hydra_searchpaths`` hook (passed as ``hydra.searchpath``, which works in every install mode);
+every registered component without a YAML gets a config node built from the registry
+(:mod:`thermodrift.core.configs`), so ``group=name`` selects any installed component.
 Each invocation gets a unique id (``THERMODRIFT_SWEEP_ID``) used for its output folder and parent MLflow run.
 """
 
@@ -20,7 +22,7 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import registry, resume, schema, tracking, tracking_faults, trial_faults
+from thermodrift.core import configs, registry, resume, schema, tracking, tracking_faults, trial_faults
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -136,7 +138,7 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
     print(f"\n{run_name}\nselected sensors: {', '.join(result.selected)}\n"
           f"held-out ({'; '.join(f.name for f in result.folds)}), µm:\n{table.to_string(float_format='%.3f')}\n"
           f"MLflow run {run.info.run_id} at {cfg.tracking.uri}")
-    return float(result.study.best_value)
+    return result.valid_rmse
 
 
 def _drop_active_runs() -> None:
@@ -194,6 +196,7 @@ def main(overrides: list[str]) -> int:
     reg = registry.default()
     for plugin, error in reg.failures.items():  # `thermodrift plugins` lists them too
         print(f"thermodrift: warning: plugin {plugin} failed to load and is left out: {error}", file=sys.stderr)
+    configs.store(reg)
     extra = []
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
         extra = [f"hydra.searchpath=[{','.join(reg.searchpaths)}]"]

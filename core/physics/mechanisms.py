@@ -13,20 +13,61 @@ Contract (what the finder and calibration rely on)::
     net2.mechanisms[-1]                                       # {"id", "params", "options"} record
     type(mech).parameters                                     # (Parameter(name, default, low, high, unit, ...),)
 
-Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options`` and ``signature`` (the
-residual signature a missing instance leaves), and implement ``_apply(network, p, o)`` where ``p`` holds the
-parameter values and ``o`` the options. Register the class with ``thermodrift_register_mechanisms``.
+What the missing-physics finder needs besides ``apply`` (checked by ``thermodrift.testing``)::
+
+    type(mech).drivers                          # recording roles it needs, e.g. ("cutting_power",)
+    type(mech).missing_drivers(recording)       # None, or why it cannot act here ("no cutting_power channel")
+    type(mech).places(net)                      # option sets, one per place it can act (node, edge, channel)
+    net2, free = mech.declare(net, **params)    # applied network + its FreeParam list (paths, bounds, scale)
+
+A :class:`FreeParam` names a mechanism parameter, the network paths it sets (network value = factor·value +
+offset), its bounds and start, and its scale: ``log`` (positive, searched in log space), ``linear`` or
+``projected`` (enters the outputs linearly, so calibration solves it by least squares). :meth:`Mechanism.declare`
+checks every path exists and that the bounds stay inside the network field's physical limits.
+
+Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options``, ``drivers`` and
+``signature`` (the residual signature a missing instance leaves, used as evidence text), implement
+``_apply(network, p, o)`` where ``p`` holds the parameter values and ``o`` the options, and
+``_declare(before, after, p, o)`` returning the free parameters; override ``places`` when it can act in more
+than its default place. Register the class with ``thermodrift_register_mechanisms``.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any, ClassVar, Sequence
 
+import numpy as np
+
 from thermodrift.core.errors import InputError
-from thermodrift.core.physics.network import Network
+from thermodrift.core.physics.network import Network, iter_elements
 from thermodrift.core.physics.spec import plain
+
+
+SCALES = ("log", "linear", "projected")
+
+
+@dataclass(frozen=True)
+class FreeParam:
+    """A free parameter a mechanism introduces: ``paths`` in the network take ``factor·value + offset``."""
+
+    name: str
+    paths: tuple[str, ...]
+    value: float
+    low: float
+    high: float
+    unit: str
+    scale: str = "log"
+    factor: float = 1.0
+    offset: float = 0.0
+
+    def network_value(self, value: float) -> float:
+        return self.factor * value + self.offset
+
+    def from_network(self, network_value: float) -> float:
+        return (network_value - self.offset) / self.factor
 
 
 @dataclass(frozen=True)
@@ -49,6 +90,7 @@ class Mechanism:
     parameters: ClassVar[tuple[Parameter, ...]] = ()
     options: ClassVar[dict[str, Any]] = {}
     signature: ClassVar[str] = ""
+    drivers: ClassVar[tuple[str, ...]] = ()  # recording roles the mechanism needs (speed, ambient, ...)
 
     def __init__(self, **options: Any):
         unknown = set(options) - set(self.options)
@@ -102,6 +144,35 @@ class Mechanism:
     def _apply(self, network: Network, p: dict[str, float], o: dict[str, Any]) -> Network:
         raise NotImplementedError
 
+    # --- what the finder needs ---------------------------------------------------------------------------------
+    @classmethod
+    def missing_drivers(cls, recording) -> str | None:
+        """Why the recording cannot drive this mechanism (a missing or constant driver channel), else None."""
+        for role in cls.drivers:
+            cols = recording.columns(role)
+            if not cols:
+                return f"the recording has no {role} channel"
+            values = recording.data[cols].to_numpy(dtype=float)
+            if not (np.ptp(values, axis=0) > 0).any():
+                return f"the {role} channel {cols[0]!r} is constant"
+        return None
+
+    @classmethod
+    def places(cls, network: Network) -> list[dict[str, Any]]:
+        """Option sets, one per place in ``network`` where the mechanism can act (default: its default place)."""
+        return [{}]
+
+    def declare(self, network: Network, **params: float) -> tuple[Network, list[FreeParam]]:
+        """:meth:`apply` plus the free parameters it introduced, checked against the network's field limits."""
+        out = self.apply(network, **params)
+        values = {**self.defaults(), **{k: float(v) for k, v in params.items()}}
+        free = self._declare(network, out, values, dict(self.chosen))
+        check_free(out, free, self.id)
+        return out, free
+
+    def _declare(self, before: Network, after: Network, p: dict[str, float], o: dict[str, Any]) -> list[FreeParam]:
+        raise NotImplementedError
+
 
 # --- helpers for mechanism plugins ------------------------------------------------------------------------------
 
@@ -141,3 +212,59 @@ def unique_name(existing: Sequence[str], base: str) -> str:
     while name in existing:
         name, i = f"{base}_{i}", i + 1
     return name
+
+
+def field_limits(network: Network, path: str) -> tuple[float, float]:
+    """Physical limits [min, max] of the network field at ``path`` (from the element's field metadata)."""
+    coll, name, fname = path.split(".", 3)[:3]
+    for c, e in iter_elements(network):
+        if c == coll and e.name == name:
+            for f in dataclasses.fields(e):
+                if f.name == fname:
+                    lo, hi = f.metadata.get("min"), f.metadata.get("max")
+                    return (-math.inf if lo is None else lo), (math.inf if hi is None else hi)
+    raise InputError(f"network {network.name!r} has no parameter {path!r}")
+
+
+def check_free(network: Network, free: Sequence[FreeParam], mechanism: str) -> None:
+    """Every path exists, low ≤ value ≤ high, log parameters are positive, and the network values the bounds
+    give stay inside each field's physical limits; InputError naming the parameter otherwise."""
+    known = network.parameters()
+    for fp in free:
+        where = f"mechanism {mechanism!r}: free parameter {fp.name!r}"
+        if fp.scale not in SCALES:
+            raise InputError(f"{where} has scale {fp.scale!r}", hint=f"use one of {', '.join(SCALES)}")
+        if not fp.low <= fp.value <= fp.high:
+            raise InputError(f"{where}: start {fp.value:g} is outside [{fp.low:g}, {fp.high:g}] {fp.unit}")
+        for path in fp.paths:
+            if path not in known:
+                raise InputError(f"{where}: network {network.name!r} has no parameter {path!r}")
+            lo, hi = field_limits(network, path)
+            ends = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
+            if fp.scale == "log" and ends[0] <= 0:
+                raise InputError(f"{where}: a log-scale parameter needs positive bounds, got {ends[0]:g} at {path}")
+            if ends[0] < lo - 1e-12 or ends[1] > hi + 1e-12:
+                raise InputError(f"{where}: bounds give {path} in [{ends[0]:g}, {ends[1]:g}], outside its "
+                                 f"limits [{lo:g}, {hi:g}]")
+
+
+def log_bounds(p: Parameter, start: float) -> tuple[float, float]:
+    """Positive search bounds for a parameter whose neutral value is 0: [start/1000 or low, high]."""
+    return max(p.low, start * 1e-3), p.high
+
+
+def nodes_of(network: Network, groups: Sequence[str]) -> list[str]:
+    """The network's nodes in any of ``groups`` (one candidate place each)."""
+    return network.nodes_in(*groups)
+
+
+def added(before: Network, after: Network, collection: str) -> list[Any]:
+    """Elements of ``collection`` that ``after`` has and ``before`` had not (by name)."""
+    old = {e.name for e in getattr(before, collection)}
+    return [e for e in getattr(after, collection) if e.name not in old]
+
+
+def changed_outputs(before: Network, after: Network) -> list[str]:
+    """Names of the outputs whose definition differs between ``before`` and ``after``."""
+    old = {o.name: o for o in before.outputs}
+    return [o.name for o in after.outputs if old.get(o.name) != o]

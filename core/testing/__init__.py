@@ -15,7 +15,7 @@ As pytest classes to subclass (see :mod:`thermodrift.testing.pytest_components`,
         name = "my_model"
 
 Each check is a function ``check(factory, params)`` listed by :func:`checks` (``"selector"``, ``"model"``,
-``"optimizer"``, ``"dataset"``); :func:`parameter_sets` gives a factory's ``get_test_params()``.
+``"optimizer"``, ``"dataset"``, ``"mechanism"``); :func:`parameter_sets` gives a factory's ``get_test_params()``.
 """
 
 from thermodrift.testing.config_checks import check_hydra_config, compose_config
@@ -25,6 +25,7 @@ from thermodrift.testing.suite import (
     check_component,
     check_dataset,
     check_factory,
+    check_mechanism,
     check_model,
     check_optimizer,
     check_selector,
@@ -37,6 +38,7 @@ __all__ = [
     "check_component",
     "check_dataset",
     "check_factory",
+    "check_mechanism",
     "check_hydra_config",
     "check_model",
     "check_optimizer",

@@ -1,7 +1,8 @@
 """The Hydra config of a registered component composes and builds the component.
 
 Composition is what ``thermodrift run`` does: the primary config ``pkg://thermodrift.conf/config.yaml`` with
-``hydra.searchpath`` set to the search paths that plugins contribute, and ``<group>=<name>`` as override.
+``hydra.searchpath`` set to the search paths that plugins contribute, the registry's config nodes
+(:mod:`thermodrift.core.configs`: every component without a YAML), and ``<group>=<name>`` as override.
 """
 
 from __future__ import annotations
@@ -13,15 +14,18 @@ from hydra import compose, initialize_config_module
 from hydra.core.global_hydra import GlobalHydra
 from omegaconf import DictConfig, OmegaConf
 
+from thermodrift.core import configs
+from thermodrift.core.configs import CONFIG_MODULE
 from thermodrift.core.errors import InputError
 from thermodrift.core.registry import CONFIG_GROUPS, Registry
 from thermodrift.core.search_space import distributions
 
-CONFIG_MODULE = "thermodrift.conf"
 
-
-def compose_config(overrides: list[str], searchpaths: list[str]) -> DictConfig:
-    """The composed run config for ``overrides``, with plugin config ``searchpaths`` (``pkg://...``)."""
+def compose_config(overrides: list[str], searchpaths: list[str], registry: Registry | None = None) -> DictConfig:
+    """The composed run config for ``overrides``, with plugin config ``searchpaths`` (``pkg://...``) and the
+    config nodes of ``registry``'s components (stored in Hydra's ConfigStore first)."""
+    if registry is not None:
+        configs.store(registry)
     outer = GlobalHydra.instance().hydra  # a caller inside a Hydra app keeps its Hydra
     GlobalHydra.instance().clear()
     try:
@@ -34,17 +38,15 @@ def compose_config(overrides: list[str], searchpaths: list[str]) -> DictConfig:
 
 
 def check_hydra_config(kind: str, name: str, registry: Registry) -> None:
-    """``<group>=<name>`` composes, names the component, and its ``params`` build it (models: valid search_space)."""
+    """``<group>=<name>`` composes (from a YAML or the registry's node), names the component, and its ``params``
+    build it (models: valid search_space)."""
     group = CONFIG_GROUPS[kind]
     try:
-        cfg = compose_config([f"{group}={name}"], registry.searchpaths)
+        cfg = compose_config([f"{group}={name}"], registry.searchpaths, registry)
         node: dict[str, Any] = OmegaConf.to_container(cfg[group], resolve=True)
     except Exception as exc:  # Hydra's errors are long; the first line says what is missing
         first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        hint = (f"; ship {group}/{name}.yaml in a config package and add it with "
-                f"registry.add_searchpath('pkg://<package>.conf') (search paths now: {registry.searchpaths})"
-                if f"{group}/{name}" in first else "")
-        raise AssertionError(f"config {group}={name} does not compose: {first}{hint}") from None
+        raise AssertionError(f"config {group}={name} does not compose: {first}") from None
     assert node.get("name") == name, f"{group}/{name}.yaml must hold 'name: {name}', found name: {node.get('name')!r}"
     params = node.get("params") or {}
     assert isinstance(params, dict), f"{group}/{name}.yaml: params must be a mapping of constructor arguments"

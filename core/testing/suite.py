@@ -8,6 +8,7 @@ from thermodrift.core import registry as registry_module
 from thermodrift.core.registry import CONFIG_GROUPS, Registry
 from thermodrift.testing.config_checks import check_hydra_config
 from thermodrift.testing.dataset_checks import DATASET_CHECKS
+from thermodrift.testing.mechanism_checks import MECHANISM_CHECKS
 from thermodrift.testing.model_checks import MODEL_CHECKS
 from thermodrift.testing.optimizer_checks import OPTIMIZER_CHECKS
 from thermodrift.testing.selector_checks import SELECTOR_CHECKS
@@ -18,6 +19,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "model": MODEL_CHECKS,
     "optimizer": OPTIMIZER_CHECKS,
     "dataset": DATASET_CHECKS,
+    "mechanism": MECHANISM_CHECKS,
 }
 
 
@@ -87,6 +89,11 @@ def check_optimizer(factory: Callable[..., Any]) -> None:
 def check_dataset(factory: Callable[..., Any]) -> None:
     """Run the dataset contract on ``factory`` (``factory(**params)`` returns a Recording)."""
     check_factory("dataset", factory)
+
+
+def check_mechanism(cls: type) -> None:
+    """Run the mechanism contract on ``cls`` (a ``Mechanism`` subclass)."""
+    check_factory("mechanism", cls)
 
 
 def check_component(kind: str, name: str, registry: Registry | None = None) -> None:

@@ -10,9 +10,9 @@ How to use:
        [project.entry-points.thermodrift]
        elm = "my_thermal_models.elm"
 
-4. Optional, for ``thermodrift run model=elm``: ship ``my_thermal_models/conf/model/elm.yaml`` holding
-   ``name: elm``, ``params: {...}`` and ``search_space: {...}`` (add ``conf/__init__.py`` and list the YAML as
-   package data), and keep the ``thermodrift_hydra_searchpaths`` hook below.
+4. ``thermodrift run model=elm`` works with no YAML: its config is built from the registry
+   (``params`` = the constructor's defaults). For other defaults ship ``my_thermal_models/conf/model/elm.yaml``
+   and add ``registry.add_searchpath("pkg://my_thermal_models.conf")`` in a ``thermodrift_hydra_searchpaths`` hook.
 5. Check it: ``from thermodrift.testing import check_component; check_component("model", "elm")``
    or subclass ``thermodrift.testing.pytest_components.ModelTests`` with ``name = "elm"`` in your tests.
 
@@ -70,8 +70,3 @@ class ExtremeLearningMachine(ThermalModel):
 def thermodrift_register_models(registry):
     registry.add("model", "elm", ExtremeLearningMachine)
 
-
-# todo: your package's config folder (conf/model/<name>.yaml inside it); delete if you ship no YAML
-@hookimpl
-def thermodrift_hydra_searchpaths(registry):
-    registry.add_searchpath("pkg://my_thermal_models.conf")

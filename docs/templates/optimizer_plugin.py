@@ -14,8 +14,9 @@ How to use:
        [project.entry-points.thermodrift]
        local_search = "my_samplers.local_search"
 
-4. Optional, for ``thermodrift run optimizer=local_search``: ship ``my_samplers/conf/optimizer/local_search.yaml``
-   holding ``name: local_search`` and ``params: {...}``, and keep the ``thermodrift_hydra_searchpaths`` hook.
+4. ``thermodrift run optimizer=local_search`` works with no YAML: its config is built from the registry
+   (``params`` = the constructor's defaults). For other defaults ship ``my_samplers/conf/optimizer/local_search.yaml``
+   and add ``registry.add_searchpath("pkg://my_samplers.conf")`` in a ``thermodrift_hydra_searchpaths`` hook.
 5. Check it: ``from thermodrift.testing import check_component; check_component("optimizer", "local_search")``
    or subclass ``thermodrift.testing.pytest_components.OptimizerTests`` with ``name = "local_search"``.
 
@@ -101,8 +102,3 @@ def _from_unit(dist, u):
 def thermodrift_register_optimizers(registry):
     registry.add("optimizer", "local_search", LocalRandomSearch)
 
-
-# todo: your package's config folder (conf/optimizer/<name>.yaml inside it); delete if you ship no YAML
-@hookimpl
-def thermodrift_hydra_searchpaths(registry):
-    registry.add_searchpath("pkg://my_samplers.conf")

@@ -10,8 +10,9 @@ How to use:
        [project.entry-points.thermodrift]
        top_k_r = "my_selectors.top_k_r"
 
-4. Optional, for ``thermodrift run selector=top_k_r``: ship ``my_selectors/conf/selector/top_k_r.yaml``
-   holding ``name: top_k_r`` and ``params: {...}``, and keep the ``thermodrift_hydra_searchpaths`` hook below.
+4. ``thermodrift run selector=top_k_r`` works with no YAML: its config is built from the registry
+   (``params`` = the constructor's defaults). For other defaults ship ``my_selectors/conf/selector/top_k_r.yaml``
+   and add ``registry.add_searchpath("pkg://my_selectors.conf")`` in a ``thermodrift_hydra_searchpaths`` hook.
 5. Check it: ``from thermodrift.testing import check_component; check_component("selector", "top_k_r")``
    or subclass ``thermodrift.testing.pytest_components.SelectorTests`` with ``name = "top_k_r"``.
 
@@ -52,8 +53,3 @@ class TopKCorrelation(Selector):
 def thermodrift_register_selectors(registry):
     registry.add("selector", "top_k_r", TopKCorrelation)
 
-
-# todo: your package's config folder (conf/selector/<name>.yaml inside it); delete if you ship no YAML
-@hookimpl
-def thermodrift_hydra_searchpaths(registry):
-    registry.add_searchpath("pkg://my_selectors.conf")

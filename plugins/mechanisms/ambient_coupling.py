@@ -12,7 +12,7 @@ windows.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
 from thermodrift.core.physics.network import Edge
 
 
@@ -20,6 +20,7 @@ class AmbientCoupling(Mechanism):
     id = "ambient_coupling"
     parameters = (Parameter("G_W_K", 3.0, 0.0, 50.0, "W/K", 0.0, "extra conductance to ambient, shared by the nodes"),)
     options = {"nodes": None, "groups": ("structure", "housing")}
+    drivers = ("ambient",)
     signature = "present with the spindle stopped; follows lagged ambient (τ hours); 24 h peak; same sign on structure"
 
     def _apply(self, network, p, o):
@@ -30,6 +31,15 @@ class AmbientCoupling(Mechanism):
             names.append(unique_name(names, f"{n}-ambient_coupling"))
             edges.append(Edge(names[-1], n, "ambient", p["G_W_K"] / len(nodes), kind="convection"))
         return network.add(*edges)
+
+    @classmethod
+    def places(cls, network):
+        return [{"nodes": [n]} for n in nodes_of(network, ("structure", "housing", "table", "motor"))] or [{}]
+
+    def _declare(self, before, after, p, o):
+        edges = added(before, after, "edges")
+        return [FreeParam("G_W_K", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["G_W_K"],
+                          *log_bounds(self.parameters[0], p["G_W_K"]), "W/K", factor=1.0 / len(edges))]
 
 
 @hookimpl

@@ -15,7 +15,8 @@ Test: regress on lagged Σ|v|.
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_outputs, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, changed_outputs, log_bounds,
+                                                 target_outputs, unique_name)
 from thermodrift.core.physics.network import AxisDriveSource, Edge, Node
 
 
@@ -27,6 +28,7 @@ class AxisDriveHeat(Mechanism):
         Parameter("sensitivity_um_K", 3.0, -15.0, 15.0, "um/K", 0.0, "axis error per K of the screw"),
     )
     options = {"axes": ("x", "y"), "capacity_J_K": 6000.0, "ambient_W_K": 2.0}
+    drivers = ("axis_velocity",)
     signature = "follows axis velocity; present with the spindle idle; position-dependent"
 
     def _apply(self, network, p, o):
@@ -47,6 +49,22 @@ class AxisDriveHeat(Mechanism):
             out, sensitivity_um_K={**out.sensitivity_um_K,
                                    screw: out.sensitivity_um_K.get(screw, 0.0) + p["sensitivity_um_K"]})
             for out in net.outputs if out.name in names])
+
+    @classmethod
+    def places(cls, network):
+        axes = list(dict.fromkeys(o.axis for o in network.outputs))
+        return [{"axes": [a]} for a in axes] or [{}]
+
+    def _declare(self, before, after, p, o):
+        source = added(before, after, "sources")[0]
+        screw = next(iter(source.split))
+        free = [FreeParam("power_W", (f"sources.{source.name}.power_W",), p["power_W"],
+                          *log_bounds(self.parameters[0], p["power_W"]), "W")]
+        free += [FreeParam(f"sensitivity_um_K[{n}]", (f"outputs.{n}.sensitivity_um_K.{screw}",),
+                           p["sensitivity_um_K"], -15.0, 15.0, "um/K", scale="projected",
+                           offset=before.output(n).sensitivity_um_K.get(screw, 0.0))
+                 for n in changed_outputs(before, after)]
+        return free
 
 
 @hookimpl

@@ -16,7 +16,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
 from thermodrift.core.physics.network import BearingSource
 
 
@@ -27,6 +27,7 @@ class BearingHeatLaw(Mechanism):
         Parameter("viscosity_coeff_per_K", 0.01, 0.0, 0.04, "1/K", 0.0, "added relative viscous-heat fall per K"),
     )
     options = {"sources": None}
+    drivers = ("speed",)
     signature = "steady ΔT vs n across plateaus follows another power law (n vs n^(5/3))"
 
     def _apply(self, network, p, o):
@@ -37,6 +38,23 @@ class BearingHeatLaw(Mechanism):
         return network.replace(*[dataclasses.replace(
             s, viscous_exponent=max(0.0, s.viscous_exponent + p["exponent_shift"]),
             viscosity_coeff_per_K=s.viscosity_coeff_per_K + p["viscosity_coeff_per_K"]) for s in bearings])
+
+    @classmethod
+    def places(cls, network):
+        return [{"sources": [s.name]} for s in network.sources if isinstance(s, BearingSource)] or [{}]
+
+    def _declare(self, before, after, p, o):
+        # One place is one bearing source, so both parameters map onto one path each.
+        old = next(s for s in before.sources if isinstance(s, BearingSource)
+                   and (not o["sources"] or s.name in o["sources"]))
+        base = f"sources.{old.name}"
+        shift_low = max(-1.0, 0.05 - old.viscous_exponent)
+        gamma_high = min(0.04, 0.05 - old.viscosity_coeff_per_K)
+        return [FreeParam("exponent_shift", (f"{base}.viscous_exponent",), p["exponent_shift"], shift_low, 1.5, "1",
+                          offset=old.viscous_exponent),
+                FreeParam("viscosity_coeff_per_K", (f"{base}.viscosity_coeff_per_K",), p["viscosity_coeff_per_K"],
+                          max(1e-4, p["viscosity_coeff_per_K"] * 1e-3), max(gamma_high, p["viscosity_coeff_per_K"]),
+                          "1/K", offset=old.viscosity_coeff_per_K)]
 
 
 @hookimpl

@@ -11,19 +11,30 @@ Residual signature when missing: instantaneous step at speed changes ∝ n², no
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_outputs
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, changed_outputs, target_outputs
 
 
 class CentrifugalGrowth(Mechanism):
     id = "centrifugal_growth"
     parameters = (Parameter("um_at_ref", 1.0, -5.0, 5.0, "um", 0.0, "growth at the reference speed"),)
     options = {"axes": ("z",)}
+    drivers = ("speed",)
     signature = "instantaneous step at speed changes ∝ n², no lag"
 
     def _apply(self, network, p, o):
         names = target_outputs(network, self.id, o["axes"])
         return network.replace(*[dataclasses.replace(out, centrifugal_um=out.centrifugal_um + p["um_at_ref"])
                                  for out in network.outputs if out.name in names])
+
+    @classmethod
+    def places(cls, network):
+        return [{"axes": [o.axis]} for o in network.outputs if o.axis not in
+                [q.axis for q in network.outputs[:network.outputs.index(o)]]]
+
+    def _declare(self, before, after, p, o):
+        outs = changed_outputs(before, after)
+        return [FreeParam("um_at_ref", (f"outputs.{n}.centrifugal_um",), p["um_at_ref"], -5.0, 5.0, "um",
+                          scale="projected", offset=before.output(n).centrifugal_um) for n in outs]
 
 
 @hookimpl

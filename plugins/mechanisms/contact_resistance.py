@@ -13,7 +13,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
 from thermodrift.core.physics.network import BOUNDARIES
 
 
@@ -36,6 +36,18 @@ class ContactResistance(Mechanism):
         e = chosen[0]
         factor = 1.0 / (1.0 + p["R_K_W"] * e.G_W_K)
         return network.replace(dataclasses.replace(e, G_W_K=e.G_W_K * factor, G_rot_W_K=e.G_rot_W_K * factor))
+
+    @classmethod
+    def places(cls, network):
+        return [{"edge": e.name} for e in network.edges if e.b not in BOUNDARIES and e.G_W_K > 0][:8]
+
+    def _declare(self, before, after, p, o):
+        # R maps onto the joint's conductance G' = G/(1 + R·G), searched directly (R = 1/G' − 1/G).
+        old = {e.name: e for e in before.edges}
+        e = next(e for e in after.edges if e.name in old and old[e.name] != e)
+        g0 = old[e.name].G_W_K
+        return [FreeParam("G_joint_W_K", (f"edges.{e.name}.G_W_K",), e.G_W_K, g0 / (1.0 + 5.0 * g0),
+                          g0 / (1.0 + 1e-3 * g0), "W/K")]
 
 
 @hookimpl

@@ -11,7 +11,7 @@ coolant switches. Test: coherence with the coolant inlet at its period.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
 from thermodrift.core.physics.network import Advection, Edge, Node
 
 
@@ -22,6 +22,7 @@ class CoolantCoupling(Mechanism):
         Parameter("mdot_cp_W_K", 280.0, 1.0, 2000.0, "W/K", 280.0, "coolant mass flow × specific heat"),
     )
     options = {"nodes": None, "groups": ("motor", "housing"), "capacity_J_K": 2000.0}
+    drivers = ("coolant_inlet",)
     signature = "periodic at the chiller period, phase-lagged to the coolant inlet; steps when the coolant switches"
 
     def _apply(self, network, p, o):
@@ -35,6 +36,18 @@ class CoolantCoupling(Mechanism):
         inflow = Advection(unique_name([a.name for a in network.advections], f"coolant->{jacket}"), "coolant",
                            jacket, p["mdot_cp_W_K"])
         return network.add(Node(jacket, float(o["capacity_J_K"]), "coolant"), inflow, *edges)
+
+    @classmethod
+    def places(cls, network):
+        return [{"nodes": [n]} for n in nodes_of(network, ("motor", "housing", "bearing", "shaft"))] or [{}]
+
+    def _declare(self, before, after, p, o):
+        edges = added(before, after, "edges")
+        flow = added(before, after, "advections")[0]
+        return [FreeParam("G_W_K", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["G_W_K"],
+                          *log_bounds(self.parameters[0], p["G_W_K"]), "W/K", factor=1.0 / len(edges)),
+                FreeParam("mdot_cp_W_K", (f"advections.{flow.name}.mdot_cp_W_K",), p["mdot_cp_W_K"], 1.0, 2000.0,
+                          "W/K")]
 
 
 @hookimpl

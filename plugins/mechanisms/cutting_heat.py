@@ -10,7 +10,7 @@ the cutting flag; regress on power.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
 from thermodrift.core.physics.network import CuttingSource
 
 
@@ -18,12 +18,23 @@ class CuttingHeat(Mechanism):
     id = "cutting_heat"
     parameters = (Parameter("fraction", 0.10, 0.0, 0.3, "1", 0.0, "share of the cutting power heating the machine"),)
     options = {"nodes": None, "groups": ("tool", "table", "bearing")}
+    drivers = ("cutting_power",)
     signature = "only in cutting windows; scales with cutting power, not speed"
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])
         name = unique_name([s.name for s in network.sources], "cutting_heat")
         return network.add(CuttingSource(name, {n: 1.0 / len(nodes) for n in nodes}, p["fraction"]))
+
+    @classmethod
+    def places(cls, network):
+        groups = ("tool", "table", "bearing", "shaft", "housing", "structure")
+        return [{"nodes": [n]} for n in nodes_of(network, groups)] or [{}]
+
+    def _declare(self, before, after, p, o):
+        source = added(before, after, "sources")[0]
+        return [FreeParam("fraction", (f"sources.{source.name}.fraction",), p["fraction"],
+                          *log_bounds(self.parameters[0], p["fraction"]), "1")]
 
 
 @hookimpl

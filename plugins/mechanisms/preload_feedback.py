@@ -10,7 +10,7 @@ likelihood-ratio test of the feedback term.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
 from thermodrift.core.physics.network import PreloadFeedback as FeedbackSource
 
 
@@ -18,6 +18,7 @@ class PreloadFeedback(Mechanism):
     id = "preload_feedback"
     parameters = (Parameter("gain_W_K", 1.0, 0.0, 10.0, "W/K", 0.0, "extra heat per K of shaft–housing difference"),)
     options = {"nodes": None, "hot": None, "cold": None}
+    drivers = ("speed",)
     signature = "super-linear, self-reinforcing growth at high speed; ∝ (T_shaft − T_housing)·n"
 
     def _apply(self, network, p, o):
@@ -30,6 +31,17 @@ class PreloadFeedback(Mechanism):
             names.append(unique_name(names, f"{b}_preload"))
             added.append(FeedbackSource(names[-1], b, hot, cold, p["gain_W_K"]))
         return network.add(*added)
+
+    @classmethod
+    def places(cls, network):
+        if not network.nodes_in("shaft") or not network.nodes_in("housing", "structure"):
+            return []
+        return [{"nodes": [n]} for n in nodes_of(network, ("bearing",))]
+
+    def _declare(self, before, after, p, o):
+        sources = added(before, after, "sources")
+        return [FreeParam("gain_W_K", tuple(f"sources.{s.name}.gain_W_K" for s in sources), p["gain_W_K"],
+                          *log_bounds(self.parameters[0], p["gain_W_K"]), "W/K")]
 
 
 @hookimpl

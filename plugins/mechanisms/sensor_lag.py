@@ -13,7 +13,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
 
 
 class SensorLag(Mechanism):
@@ -29,6 +29,18 @@ class SensorLag(Mechanism):
         if not sensors:
             raise InputError(f"mechanism {self.id!r}: network {network.name!r} has no such temperature sensors")
         return network.replace(*[dataclasses.replace(s, lag_s=s.lag_s + p["lag_s"]) for s in sensors])
+
+    @classmethod
+    def places(cls, network):
+        return [{"sensors": [s.name]} for s in network.temperature_sensors if s.role == "temperature"]
+
+    def _declare(self, before, after, p, o):
+        old = {s.name: s for s in before.temperature_sensors}
+        chosen = [s for s in after.temperature_sensors if old[s.name].lag_s != s.lag_s]
+        base = old[chosen[0].name].lag_s  # one place is one sensor; several share the added lag
+        same = [s for s in chosen if old[s.name].lag_s == base]
+        return [FreeParam("lag_s", tuple(f"sensors.{s.name}.lag_s" for s in same), p["lag_s"],
+                          max(1.0, p["lag_s"] * 1e-3), 1800.0, "s", offset=base)]
 
 
 @hookimpl

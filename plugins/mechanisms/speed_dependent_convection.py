@@ -10,7 +10,7 @@ Residual signature when missing: steady state over-predicted at high n; cool-dow
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
 from thermodrift.core.physics.network import Edge
 
 
@@ -21,6 +21,7 @@ class SpeedDependentConvection(Mechanism):
         Parameter("exponent", 0.7, 0.4, 1.0, "1", 0.7, "speed exponent of h"),
     )
     options = {"nodes": None, "groups": ("shaft", "bearing")}
+    drivers = ("speed",)
     signature = "steady state over-predicted at high n; cool-down τ differs from warm-up τ"
 
     def _apply(self, network, p, o):
@@ -32,6 +33,15 @@ class SpeedDependentConvection(Mechanism):
             edges.append(Edge(names[-1], n, "ambient", 0.0, kind="convection",
                               G_rot_W_K=p["G_rot_W_K"] / len(nodes), rot_exponent=p["exponent"]))
         return network.add(*edges)
+
+    @classmethod
+    def places(cls, network):
+        return [{"nodes": [n]} for n in nodes_of(network, ("shaft", "bearing", "motor"))] or [{}]
+
+    def _declare(self, before, after, p, o):
+        edges = added(before, after, "edges")
+        return [FreeParam("G_rot_W_K", tuple(f"edges.{e.name}.G_rot_W_K" for e in edges), p["G_rot_W_K"],
+                          *log_bounds(self.parameters[0], p["G_rot_W_K"]), "W/K", factor=1.0 / len(edges))]
 
 
 @hookimpl

@@ -13,7 +13,8 @@ over difference features.
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import Mechanism, Parameter, target_nodes, target_outputs
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, changed_outputs, nodes_of,
+                                                 target_nodes, target_outputs)
 
 
 class ThermalTilt(Mechanism):
@@ -30,6 +31,22 @@ class ThermalTilt(Mechanism):
         return network.replace(*[dataclasses.replace(
             out, tilt_um_K={**out.tilt_um_K, key: out.tilt_um_K.get(key, 0.0) + p["um_K"]})
             for out in network.outputs if out.name in names])
+
+    @classmethod
+    def places(cls, network):
+        hot = nodes_of(network, ("housing", "motor", "bearing"))
+        cold = nodes_of(network, ("structure", "table"))
+        axes = list(dict.fromkeys(o.axis for o in network.outputs))
+        return [{"hot": h, "cold": c, "axes": [a]} for h in hot[:3] for c in cold[:3] for a in axes][:12]
+
+    def _declare(self, before, after, p, o):
+        out = []
+        for n in changed_outputs(before, after):
+            old, new = before.output(n).tilt_um_K, after.output(n).tilt_um_K
+            key = next(k for k in new if new[k] != old.get(k))
+            out.append(FreeParam(f"um_K[{n}]", (f"outputs.{n}.tilt_um_K.{key}",), p["um_K"], -20.0, 20.0, "um/K",
+                                 scale="projected", offset=old.get(key, 0.0)))
+        return out
 
 
 @hookimpl

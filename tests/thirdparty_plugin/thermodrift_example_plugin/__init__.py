@@ -1,7 +1,7 @@
 """Model ``ridge_demo``: ridge regression of displacement (µm) on standardised temperatures (°C).
 
-The whole plugin: a model class, the hook that registers it, and the hook that adds this package's Hydra
-configs (``conf/model/ridge_demo.yaml``) to thermodrift's search path.
+A model class and the hook that registers it; no YAML: ``thermodrift run model=ridge_demo`` builds its config
+from the constructor's defaults and ``search_space()``.
 """
 
 from sklearn.linear_model import Ridge
@@ -37,7 +37,3 @@ class RidgeDemo(ThermalModel):
 def thermodrift_register_models(registry):
     registry.add("model", "ridge_demo", RidgeDemo)
 
-
-@hookimpl
-def thermodrift_hydra_searchpaths(registry):
-    registry.add_searchpath("pkg://thermodrift_example_plugin.conf")

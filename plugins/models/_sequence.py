@@ -1,0 +1,225 @@
+"""Shared parts of the sequence models of study S3 (``cnn_lstm``, ``ma_cnn``, ``cnn_lstm_transformer``, ``tcn_lstm``,
+``dltk``): windows over past inputs, the S3 search space, and the layers no library ships.
+
+A prediction for row t reads the input rows t-window+1 .. t (temperatures in °C, Z-scored by the trainer), so
+``history_length = window - 1``: ``predict(X, history)`` and ``streamer(history)`` of the base class give the
+same numbers. Rows before the first one available repeat it (edge padding), at training and prediction alike.
+torch is imported where a network is built, not with the plugin.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from thermodrift.core.training import TorchThermalModel
+
+if TYPE_CHECKING:
+    from torch import nn
+
+
+def windows(x: np.ndarray, window: int) -> np.ndarray:
+    """(n, features) -> (n, window, features): row t holds rows t-window+1 .. t, the first row repeated before it."""
+    x = np.asarray(x, dtype=float)
+    padded = np.concatenate([np.repeat(x[:1], window - 1, axis=0), x]) if len(x) else x
+    view = np.lib.stride_tricks.sliding_window_view(padded, window, axis=0)  # (n, features, window)
+    return np.ascontiguousarray(view.transpose(0, 2, 1))
+
+
+def s3_search_space() -> dict[str, dict[str, Any]]:
+    """S3's search space: learning rate 1e-5..1e-2, dropout, loss in {rmse, mse, mae} (models add their sizes)."""
+    return {
+        "lr_max": {"type": "float", "low": 1e-5, "high": 1e-2, "log": True},
+        "dropout": {"type": "float", "low": 0.0, "high": 0.5},
+        "loss": {"type": "categorical", "choices": ["rmse", "mse", "mae"]},
+    }
+
+
+# Trainer defaults sized for a CPU: 4,682 one-minute samples train in well under 2 minutes on 2 cores
+# (benchmarks/bench_s3_models.py measures it).
+TRAINER_DEFAULTS = dict(lr_max=3e-3, loss="mse", epochs=60, batch_size=128, t0=10, t_mult=2, patience=3,
+                        weight_decay=1e-4, random_state=0, device="auto")
+
+
+class SequenceModel(TorchThermalModel):
+    """Base of the windowed torch models: ``window`` rows in, one displacement row (µm) out per target.
+
+    Subclasses store their constructor parameters (their own plus ``window``, ``dropout`` and the trainer fields
+    ``lr_max``, ``loss``, ``epochs``, ``batch_size``, ``t0``, ``t_mult``, ``patience``, ``weight_decay``,
+    ``random_state``, ``device``) and implement ``_network(n_inputs, n_outputs)`` taking (batch, window, inputs).
+    """
+
+    @property
+    def history_length(self) -> int:  # type: ignore[override]  # depends on the window parameter
+        return int(self.window) - 1
+
+    def _inputs(self, X: pd.DataFrame) -> np.ndarray:
+        if self.window < 1:
+            raise ValueError(f"window must be >= 1, got {self.window}")
+        return windows(X.to_numpy(dtype=float), int(self.window))
+
+    def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
+        return self._network(n_inputs, n_outputs)
+
+    def _network(self, n_inputs: int, n_outputs: int) -> nn.Module:
+        raise NotImplementedError
+
+    def n_parameters(self) -> int:
+        """Trainable parameters of the fitted network."""
+        return int(sum(v.numel() for k, v in self.state_dict_.items() if not _is_buffer(k)))
+
+
+def _is_buffer(key: str) -> bool:
+    return key.endswith(("running_mean", "running_var", "num_batches_tracked"))
+
+
+def transformer_width(size: int, heads: int) -> int:
+    """The smallest multiple of ``heads`` that is >= ``size`` (attention splits d_model across heads)."""
+    return heads * math.ceil(size / heads)
+
+
+# ---------------------------------------------------------------------------------------------------- layers
+def layers():
+    """The hand-written layers (built on first use, so importing the plugin does not import torch)."""
+    global _LAYERS
+    if _LAYERS is None:
+        _LAYERS = _define_layers()
+    return _LAYERS
+
+
+_LAYERS = None
+
+
+def _define_layers():
+    import torch
+    from torch import nn
+
+    class LastStep(nn.Module):
+        """(batch, time, features) -> (batch, features) at the newest time step."""
+
+        def forward(self, x):
+            return x[:, -1]
+
+    class LSTMSequence(nn.Module):
+        """An LSTM that returns its whole output sequence (batch, time, hidden)."""
+
+        def __init__(self, n_in: int, hidden: int):
+            super().__init__()
+            self.lstm = nn.LSTM(n_in, hidden, batch_first=True)
+
+        def forward(self, x):
+            return self.lstm(x)[0]
+
+    class Conv(nn.Module):
+        """1-D convolution on (batch, time, channels) with 'same' length; ``causal`` pads only the past."""
+
+        def __init__(self, n_in: int, n_out: int, kernel: int, dilation: int = 1, causal: bool = False):
+            super().__init__()
+            self.pad = (kernel - 1) * dilation
+            self.causal = causal
+            self.conv = nn.Conv1d(n_in, n_out, kernel, dilation=dilation)
+
+        def forward(self, x):
+            x = x.transpose(1, 2)
+            left = self.pad if self.causal else self.pad // 2
+            x = nn.functional.pad(x, (left, self.pad - left), mode="replicate")
+            return self.conv(x).transpose(1, 2)
+
+    class DeformableConv1d(nn.Module):
+        """1-D deformable convolution (Dai et al. 2017, in one dimension): each output step t reads its kernel
+        taps at t + (k - K//2) + delta(t, k), with learned fractional offsets delta from a plain convolution
+        (zero-initialised, so training starts from an ordinary convolution), by linear interpolation;
+        positions outside the window take the nearest edge value. torchvision's deform_conv2d is 2-D and not a
+        dependency, hence written here."""
+
+        def __init__(self, n_in: int, n_out: int, kernel: int):
+            super().__init__()
+            self.kernel = kernel
+            self.offset = nn.Conv1d(n_in, kernel, kernel, padding=kernel // 2)
+            nn.init.zeros_(self.offset.weight)
+            nn.init.zeros_(self.offset.bias)
+            self.weight = nn.Parameter(torch.empty(n_out, n_in, kernel))
+            self.bias = nn.Parameter(torch.zeros(n_out))
+            nn.init.kaiming_uniform_(self.weight, a=math.sqrt(5))
+
+        def forward(self, x):  # x: (batch, time, channels)
+            xc = x.transpose(1, 2)  # (B, C, L)
+            b, c, length = xc.shape
+            delta = self.offset(xc)[..., :length]  # (B, K, L)
+            taps = torch.arange(self.kernel, device=x.device, dtype=x.dtype) - self.kernel // 2
+            pos = torch.arange(length, device=x.device, dtype=x.dtype).view(1, 1, -1) + taps.view(1, -1, 1) + delta
+            pos = pos.clamp(0, length - 1)
+            lo = pos.floor().long().clamp(max=length - 1)
+            hi = (lo + 1).clamp(max=length - 1)
+            frac = (pos - lo.to(x.dtype)).unsqueeze(1)  # (B, 1, K, L)
+
+            def gather(idx):  # (B, K, L) -> (B, C, K, L)
+                flat = idx.reshape(b, 1, -1).expand(b, c, -1)
+                return xc.gather(2, flat).view(b, c, self.kernel, length)
+
+            sampled = gather(lo) * (1 - frac) + gather(hi) * frac
+            out = torch.einsum("bckl,ock->bol", sampled, self.weight) + self.bias.view(1, -1, 1)
+            return out.transpose(1, 2)
+
+    class FourierKAN(nn.Module):
+        """Fourier Kolmogorov-Arnold layer (Xu et al. 2024, FourierKAN): y_j = b_j + sum_i sum_g a_jig cos(g u_i)
+        + b_jig sin(g u_i), u = pi tanh(x) so every input lies in one period. A few lines, no library ships it."""
+
+        def __init__(self, n_in: int, n_out: int, grid: int):
+            super().__init__()
+            self.register_buffer("k", torch.arange(1, grid + 1, dtype=torch.float32))
+            scale = 1.0 / math.sqrt(n_in * grid)
+            self.coef = nn.Parameter(torch.randn(2, n_out, n_in, grid) * scale)
+            self.bias = nn.Parameter(torch.zeros(n_out))
+
+        def forward(self, x):
+            u = math.pi * torch.tanh(x).unsqueeze(-1) * self.k  # (B, in, grid)
+            return (torch.einsum("big,oig->bo", torch.cos(u), self.coef[0])
+                    + torch.einsum("big,oig->bo", torch.sin(u), self.coef[1]) + self.bias)
+
+    class TemporalBlock(nn.Module):
+        """TCN residual block (Bai, Kolter & Koltun 2018): two dilated causal convolutions, ReLU, dropout."""
+
+        def __init__(self, n_in: int, n_out: int, kernel: int, dilation: int, dropout: float):
+            super().__init__()
+            self.net = nn.Sequential(Conv(n_in, n_out, kernel, dilation, causal=True), nn.ReLU(), nn.Dropout(dropout),
+                                     Conv(n_out, n_out, kernel, dilation, causal=True), nn.ReLU(),
+                                     nn.Dropout(dropout))
+            self.skip = nn.Linear(n_in, n_out) if n_in != n_out else nn.Identity()
+
+        def forward(self, x):
+            return torch.relu(self.net(x) + self.skip(x))
+
+    class ChannelAttention(nn.Module):
+        """Squeeze-and-excitation over channels (Hu et al. 2018) on (batch, time, channels)."""
+
+        def __init__(self, channels: int, reduction: int = 4):
+            super().__init__()
+            mid = max(1, channels // reduction)
+            self.gate = nn.Sequential(nn.Linear(channels, mid), nn.ReLU(), nn.Linear(mid, channels), nn.Sigmoid())
+
+        def forward(self, x):
+            return x * self.gate(x.mean(dim=1)).unsqueeze(1)
+
+    class TemporalAttention(nn.Module):
+        """Softmax attention over time steps, pooling (batch, time, channels) to (batch, channels)."""
+
+        def __init__(self, channels: int):
+            super().__init__()
+            self.score = nn.Linear(channels, 1)
+
+        def forward(self, x):
+            w = torch.softmax(self.score(x), dim=1)
+            return (w * x).sum(dim=1)
+
+    def encoder(width: int, heads: int, dropout: float) -> nn.Module:
+        """One Transformer encoder layer (pre-norm, feed-forward 2 x width) on (batch, time, width)."""
+        return nn.TransformerEncoderLayer(width, heads, dim_feedforward=2 * width, dropout=dropout, batch_first=True,
+                                          norm_first=True)
+
+    return dict(LastStep=LastStep, LSTMSequence=LSTMSequence, Conv=Conv, DeformableConv1d=DeformableConv1d,
+                FourierKAN=FourierKAN, TemporalBlock=TemporalBlock, ChannelAttention=ChannelAttention,
+                TemporalAttention=TemporalAttention, encoder=encoder)

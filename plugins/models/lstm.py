@@ -1,0 +1,98 @@
+"""Model ``lstm``: S1's long short-term memory network over a sliding window of temperatures.
+
+Each prediction reads the last ``window`` input rows (S1: 5) through one LSTM layer of ``hidden_units`` units
+(S1 searched 1–200) and a linear head on the last step's output; inputs and targets are Z-scored, the loss is
+MSE and training stops after at most ``epochs`` (S1: 200). Training runs on the shared trainer: AdamW with SGDR
+warm restarts, gradient clipping and early stopping on the chronological validation tail, where S1 used plain
+Adam at a fixed learning rate; ``lr_max`` spans S1's 0.01–0.15 and is the peak of each SGDR cycle.
+
+The window is the model's memory (``history_length = window − 1``): ``predict(X, history)`` fills the first
+rows' windows from ``history``; without history the first row is repeated (as at a cold start).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import pandas as pd
+
+from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.training import TorchThermalModel
+
+if TYPE_CHECKING:
+    from torch import nn
+
+
+def windows(x: np.ndarray, window: int) -> np.ndarray:
+    """(n, window, features): row i holds rows i−window+1 … i, the first row repeated before the start."""
+    padded = np.concatenate([np.repeat(x[:1], window - 1, axis=0), x]) if len(x) else x
+    idx = np.arange(len(x))[:, None] + np.arange(window)[None, :]
+    return padded[idx]
+
+
+class LSTM(TorchThermalModel):
+    """Temperatures (°C) over the last ``window`` samples → displacements (µm) (see the module docstring)."""
+
+    def __init__(self, window: int = 5, hidden_units: int = 45, lr_max: float = 0.0941, weight_decay: float = 0.0,
+                 epochs: int = 200, batch_size: int | None = None, t0: int = 50, t_mult: int = 2,
+                 eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0, patience: int | None = 3,
+                 validation_fraction: float = 0.15, random_state: int = 0, device: str = "auto"):
+        self.window = window
+        self.hidden_units = hidden_units
+        self.lr_max = lr_max
+        self.weight_decay = weight_decay
+        self.epochs = epochs
+        self.batch_size = batch_size
+        self.t0 = t0
+        self.t_mult = t_mult
+        self.eta_min_ratio = eta_min_ratio
+        self.clip_norm = clip_norm
+        self.patience = patience
+        self.validation_fraction = validation_fraction
+        self.random_state = random_state
+        self.device = device
+
+    # follows the window parameter, so a property rather than a class constant (on the class it is truthy)
+    @property
+    def history_length(self) -> int:  # type: ignore[override]
+        return max(0, int(self.window) - 1)
+
+    @classmethod
+    def get_test_params(cls):
+        return [{"hidden_units": 4, "epochs": 6, "t0": 2, "lr_max": 0.05},
+                {"window": 3, "hidden_units": 2, "epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 64,
+                 "patience": None}]
+
+    @classmethod
+    def search_space(cls):
+        return {"lr_max": {"type": "float", "low": 0.01, "high": 0.15},
+                "hidden_units": {"type": "int", "low": 1, "high": 200}}
+
+    def _inputs(self, X: pd.DataFrame) -> np.ndarray:
+        if self.window < 1:
+            raise ValueError(f"window must be >= 1, got {self.window}")
+        return windows(X.to_numpy(dtype=float), int(self.window))
+
+    def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
+        from torch import nn
+
+        if self.hidden_units < 1:
+            raise ValueError(f"hidden_units must be >= 1, got {self.hidden_units}")
+
+        class _Net(nn.Module):
+            def __init__(self, hidden: int):
+                super().__init__()
+                self.lstm = nn.LSTM(n_inputs, hidden, batch_first=True)
+                self.head = nn.Linear(hidden, n_outputs)
+
+            def forward(self, x):
+                out, _ = self.lstm(x)
+                return self.head(out[:, -1])
+
+        return _Net(int(self.hidden_units))
+
+
+@hookimpl
+def thermodrift_register_models(registry):
+    registry.add("model", "lstm", LSTM)

@@ -1,0 +1,91 @@
+"""No test row of a fold reaches what produces that fold's prediction: selection, tuning, scaling or refit.
+
+A recording selector and a recording model (with history, so the history passed to it is checked too) note the
+rows of every call; the calls are cut into folds at each selector fit (the job runs its folds one after another).
+Models scale inside their own ``fit``, so the rows that reach ``fit`` are the rows that reach scaling.
+"""
+
+import numpy as np
+import pytest
+
+from thermodrift.core import registry, splits
+from thermodrift.core.study import Job, JobSpec
+from thermodrift.plugins.models.mlr import MLR
+from thermodrift.plugins.selectors.correlation_top_k import CorrelationTopK
+from thermodrift.testing.data import tiny_recording
+
+CALLS: list[tuple[str, np.ndarray]] = []
+
+
+class RecordingSelector(CorrelationTopK):
+    def _select(self, X, y):
+        CALLS.append(("select", X.index.to_numpy()))
+        return super()._select(X, y)
+
+
+class RecordingModel(MLR):
+    history_length = None  # the whole past: every history the job passes is recorded
+
+    def _fit(self, X, y):
+        CALLS.append(("fit", X.index.to_numpy()))
+        super()._fit(X, y)
+
+    def predict(self, X, history=None):
+        CALLS.append(("history", np.asarray([] if history is None else history.index.to_numpy())))
+        CALLS.append(("predict", X.index.to_numpy()))
+        return super().predict(X, history)
+
+
+# Every honest split kind, with parameters that fit the 5-hour tiny recording (5 working conditions).
+HONEST = {
+    "chronological": {},
+    "condition_holdout": {},
+    "condition_holdout/others": {"test_conditions": ["c02"], "train_on": "others"},
+    "time_window": {"train_end_h": 3.0, "test_start_h": 3.0, "test_end_h": 4.0},
+    "forward_chaining": {},
+}
+
+
+def test_every_honest_split_kind_is_covered():
+    honest = {k for k, cls in splits.SPLITS.items() if cls.protocol == "honest"}
+    assert honest == {k.split("/")[0] for k in HONEST}
+
+
+@pytest.fixture()
+def reg(monkeypatch):
+    loaded = registry.load()
+    loaded._origin = loaded._module = "tests"
+    loaded.add("model", "recording_mlr", RecordingModel)
+    loaded.add("selector", "recording_top_k", RecordingSelector)
+    monkeypatch.setattr(registry, "_DEFAULT", loaded)
+    return loaded
+
+
+@pytest.mark.parametrize("case", list(HONEST))
+def test_no_test_row_reaches_selection_tuning_or_refit(reg, case):
+    rec = tiny_recording(seed=0)
+    kind, params = case.split("/")[0], HONEST[case]
+    spec = JobSpec(dataset="tiny", model="recording_mlr", selector="recording_top_k", optimizer="random",
+                   split=kind, split_params=params, n_trials=3, storage=None, progress=False)
+    CALLS.clear()
+    result = Job(spec).run(rec)
+    folds = splits.make_split(kind, **params).folds(rec)
+    assert len(result.folds) == len(folds)
+    index = rec.data.index
+    starts = [i for i, (what, _) in enumerate(CALLS) if what == "select"]
+    for fold in folds:
+        assert any(set(index.get_indexer(CALLS[i][1])) <= set(fold.train) for i in starts), \
+            f"{case} {fold.name}: no selection saw this fold's training rows alone"
+    assert len(starts) == len(folds), "one selection per fold"
+    for fold, start, end in zip(folds, starts, starts[1:] + [len(CALLS)]):
+        test = set(fold.test)
+        calls = [(what, set(index.get_indexer(rows))) for what, rows in CALLS[start:end]]
+        held_out = max(i for i, (what, _) in enumerate(calls) if what == "predict")
+        assert calls[held_out][1] == test  # the refit model's held-out prediction
+        if np.all(np.diff(fold.test) == 1):  # ... with every earlier input row as its history
+            assert calls[held_out - 1][1] == set(range(fold.test[0]))
+        fits = [i for i, (what, _) in enumerate(calls) if what == "fit"]
+        assert len(fits) >= 2 and calls[fits[-1]][1] <= set(fold.train)  # tuning fits, then the refit
+        for i, (what, rows) in enumerate(calls):
+            if i != held_out:
+                assert not rows & test, f"{case} {fold.name}: test rows reach the {what} call #{i}"
