@@ -34,7 +34,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import efficiency, registry, search_space, splits, training
+from thermodrift.core import efficiency, registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -230,6 +230,7 @@ class Job:
             return rmse
 
         def objective(trial: optuna.Trial) -> float:
+            resume.claim(trial)
             chosen = None
             if sel_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
                 sel_params = {k.removeprefix(SELECTOR_PREFIX): v for k, v in search_space.suggest(trial, sel_space).items()}
@@ -250,16 +251,19 @@ class Job:
             best, valid = dict(spec.model_params), validate(dict(spec.model_params))
         else:
             study = self._study(study_name)
-            done = sum(t.state in FINISHED for t in study.trials)
+            resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+            done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
             budget = 1 if not space else spec.n_trials
             if done:
                 complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
                 self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
                          f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
                          f"{max(0, budget - done)} to run")
-            if done < budget:
-                study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
-                               callbacks=self.callbacks, show_progress_bar=spec.progress)
+            if done < budget:  # other workers on the same study count too: the budget is the study's
+                study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
+                               catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
+                               show_progress_bar=spec.progress)
+            resume.fail_dead_trials(study)  # a worker killed while this one ran
             complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
             if not complete:
                 reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason")
@@ -304,9 +308,11 @@ class Job:
     def storage(url: str) -> optuna.storages.RDBStorage:
         """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
         killed run as failed instead of running forever."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        def create() -> optuna.storages.RDBStorage:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        return schema.retrying(create, url)  # workers that start together on a new database
 
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
@@ -317,8 +323,9 @@ class Job:
         sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
                                           **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
-        return optuna.create_study(study_name=name, storage=storage,
-                                   sampler=sampler, direction="minimize", load_if_exists=True)
+        return schema.retrying(lambda: optuna.create_study(
+            study_name=name, storage=storage, sampler=sampler, direction="minimize", load_if_exists=True),
+            spec.storage)
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:

@@ -24,13 +24,14 @@ from pathlib import Path
 from typing import Any
 
 import mlflow
-import mlflow.sklearn
 import numpy as np
 import optuna
 import pandas as pd
 from hydra.experimental.callback import Callback
 from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
+
+from thermodrift.core import artifacts
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
@@ -43,7 +44,6 @@ def setup(uri: str | None, experiment: str) -> str:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)
-    logging.getLogger("mlflow.sklearn").setLevel(logging.ERROR)  # the cloudpickle caution: chosen knowingly
     uri = uri or DEFAULT_URI
     mlflow.set_tracking_uri(uri)
     if mlflow.get_experiment_by_name(experiment) is None and uri.startswith("sqlite:///"):
@@ -172,10 +172,8 @@ def log_result(result, params: dict[str, Any]) -> None:
             where = "selector" if len(result.folds) == 1 else f"selector/fold{k}"
             for name, path in selector_report(getattr(fold, "selector", None), tmp_path / where).items():
                 mlflow.log_artifact(str(path), artifact_path=where)
-    # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
-    # refuses estimator classes it does not know, and every plugin model is one.
-    mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
-                             pip_requirements=["thermodrift"])
+    # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
+    artifacts.log_model(result.model, result.spec.model)
 
 
 def _log_dataset(result) -> None:

@@ -11,7 +11,7 @@ import time
 from pathlib import Path
 
 import mlflow
-import mlflow.sklearn
+import mlflow.pyfunc
 import pytest
 
 from thermodrift.testing.data import tiny_recording
@@ -72,7 +72,7 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     assert {"figures/prediction_vs_measurement.png", "figures/residuals.png"} <= figs
     (logged,) = mlflow.search_logged_models(experiment_ids=[run.info.experiment_id], output_format="list")
     assert logged.source_run_id == run.info.run_id
-    model = mlflow.sklearn.load_model(f"models:/{logged.model_id}")
+    model = mlflow.pyfunc.load_model(f"models:/{logged.model_id}")
     X = tiny_recording(seed=0).data[run.data.params["selected_sensors"].split(",")]
     assert model.predict(X).shape == (len(X), 2)
     history = client.get_metric_history(run.info.run_id, "trial/value")

@@ -35,8 +35,13 @@ def main(argv: list[str] | None = None) -> int:
         print(run_options.help_text())
         return 0
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
-        from thermodrift.core.cli import run as app
-        return _guard(lambda: app.main(argv[1:]))
+        from thermodrift.core import tracking_faults
+
+        def run_app() -> int:
+            tracking_faults.precheck(argv[1:])  # a dead server is reported before the slow imports
+            from thermodrift.core.cli import run as app
+            return app.main(argv[1:])
+        return _guard(run_app)
     parser = argparse.ArgumentParser(prog="thermodrift", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
     for verb, (module_name, help_text) in VERBS.items():
