@@ -71,7 +71,8 @@ def main() -> int:
         if args.postgres:
             storages["postgresql"] = args.postgres
         print(f"{args.trials} trials of a trivial objective; {os.cpu_count()} CPU cores")
-        print(f"{'storage':12s} {'workers':>7s} {'trials':>6s} {'wall s':>7s} {'trials/s':>9s} {'ms/trial/worker':>16s}")
+        print(f"{'storage':12s} {'workers':>7s} {'trials':>6s} {'wall s':>7s} {'trials/s':>9s} "
+              f"{'ms/trial/worker':>16s}")
         for label, url in storages.items():
             for n in args.workers:
                 wall, done = measure(url, n, args.trials)
