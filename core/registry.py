@@ -33,6 +33,8 @@ _HOOKS = {
     "mechanism": "thermodrift_register_mechanisms",
 }
 HOOKS = (*_HOOKS.values(), "thermodrift_hydra_searchpaths", "thermodrift_hydra_plugins")
+# What a plugin may raise while loading without stopping the others: anything but KeyboardInterrupt.
+_PLUGIN_FAULTS = (Exception, SystemExit, GeneratorExit)
 # The Hydra config group that configures each kind (conf/<group>/<name>.yaml).
 CONFIG_GROUPS = {"selector": "selector", "model": "model", "optimizer": "optimizer", "dataset": "dataset"}
 
@@ -154,7 +156,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
         try:
             manager.register(ep.load(), name=name)
             manager.check_pending()  # a misspelled hook fails this plugin only
-        except Exception as exc:  # a broken third-party distribution must not stop the rest
+        except _PLUGIN_FAULTS as exc:  # a broken third-party distribution must not stop the rest
             if manager.get_plugin(name) is not None:
                 manager.unregister(name=name)
             registry.failures[key] = _one_line(exc)
@@ -174,7 +176,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
                 manager.subset_hook_caller(hook_name, remove_plugins=others)(registry=registry)
             except DuplicateComponentError:
                 raise
-            except Exception as exc:  # same rule as for import failures; what it added is dropped
+            except _PLUGIN_FAULTS as exc:  # same rule as for import failures; what it added is dropped
                 registry.failures[key] = _one_line(exc)
                 registry.drop(origin, module_name)
     registry._origin = registry._module = "<unknown>"

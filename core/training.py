@@ -155,6 +155,7 @@ class TrainReport:
     grad_norm_max: float = math.nan
     clipped_fraction: float = math.nan
     seconds: float = 0.0
+    n_parameters: int = 0  # trainable weights of the network
 
     def metrics(self) -> dict[str, float]:
         """Scalar fields for a tracker (booleans as 0/1)."""
@@ -353,6 +354,7 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
         module = build().to(device)
         module.train()
         params = [p for p in module.parameters() if p.requires_grad]
+        report.n_parameters = sum(p.numel() for p in params)
         optimizer = torch.optim.AdamW(params, lr=config.lr_max, weight_decay=config.weight_decay)
         scheduler = CosineAnnealingWarmRestarts(optimizer, T_0=config.t0, T_mult=config.t_mult,
                                                 eta_min=config.eta_min_ratio * config.lr_max)

@@ -69,11 +69,7 @@ class SequenceModel(TorchThermalModel):
 
     def n_parameters(self) -> int:
         """Trainable parameters of the fitted network."""
-        return int(sum(v.numel() for k, v in self.state_dict_.items() if not _is_buffer(k)))
-
-
-def _is_buffer(key: str) -> bool:
-    return key.endswith(("running_mean", "running_var", "num_batches_tracked"))
+        return int(self.train_report_.n_parameters)
 
 
 def transformer_width(size: int, heads: int) -> int:
