@@ -62,7 +62,8 @@ def main(argv: list[str] | None = None) -> int:
     print(head)
     for name in args.models:
         factory = registry.get("model", name).factory
-        params = {"device": args.device} if registry.accepts(factory, "device") else {}
+        key = "device" if registry.accepts(factory, "device") else "trainer__device"  # bp: a trainer setting
+        params = {key: args.device} if key == "device" or registry.accepts(factory, "trainer") else {}
         r = measure(name, X, y, cut, params)
         print(f"{name:22s}{r['train_s']:9.1f}{r['train_cpu_s']:7.1f}{r['epochs']:7d}{r['n_parameters']:9.0f}{r['latency_batch_ms']:17.4f}"
               f"{r['latency_stream_ms']:16.3f}"

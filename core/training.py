@@ -439,8 +439,13 @@ class TorchThermalModel(ThermalModel):
         return X.to_numpy(dtype=float)
 
     def trainer_settings(self) -> TrainerSettings:
-        """The class's ``trainer_defaults`` with this model's ``trainer`` overrides applied."""
-        overrides = _overrides(getattr(self, TRAINER))
+        """The class's ``trainer_defaults`` with this model's ``trainer`` overrides applied.
+
+        Models written before the ``trainer`` parameter state trainer fields (``lr_max``, ``epochs``, ...) as
+        constructor parameters of their own; those are read too, and ``trainer`` overrides them.
+        """
+        own = {k: v for k, v in ThermalModel.get_params(self, deep=False).items() if k in _TRAINER_FIELDS}
+        overrides = {**own, **_overrides(getattr(self, TRAINER, None))}
         unknown = sorted(set(overrides) - _TRAINER_FIELDS)
         if unknown:
             raise ValueError(f"unknown trainer settings {unknown}; known: {', '.join(sorted(_TRAINER_FIELDS))}")
@@ -458,7 +463,7 @@ class TorchThermalModel(ThermalModel):
         nested = {k[len(_NESTED):]: params.pop(k) for k in list(params) if k.startswith(_NESTED)}
         super().set_params(**params)
         if nested:  # a new dict: a shared default or the caller's mapping is never changed in place
-            setattr(self, TRAINER, {**_overrides(getattr(self, TRAINER)), **nested})
+            setattr(self, TRAINER, {**_overrides(getattr(self, TRAINER, None)), **nested})
         return self
 
     def _fit(self, X: pd.DataFrame, y: np.ndarray) -> None:

@@ -70,7 +70,7 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
     storage = postgres_url()
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    args = ["model=bp", "model.params.epochs=20", "n_trials=16", "optimizer=random", f"optuna.storage={storage}",
+    args = ["model=bp", "model.params.trainer.epochs=20", "n_trials=16", "optimizer=random", f"optuna.storage={storage}",
             f"optuna.study_name={name}"]
     workers = [_start(tmp_path, args) for _ in range(4)]
     victim, deadline = workers[0], time.time() + 300

@@ -19,7 +19,7 @@ from thermodrift.testing.data import tiny_recording
 
 EXE = [sys.executable, "-m", "thermodrift.core.cli", "run"]
 ARGS = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
-        "progress=false", "model=bp", "model.params.epochs=30", "optimizer=random"]
+        "progress=false", "model=bp", "model.params.trainer.epochs=30", "optimizer=random"]
 
 
 def _states(db: Path) -> dict[str, int]:

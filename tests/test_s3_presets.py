@@ -37,6 +37,8 @@ def test_each_arm_builds_its_job(arm):
     assert spec.dataset == "motorized_spindle_s3" and spec.selector == "hdbscan_pso"
     assert spec.split == "shuffled" and spec.split_params == {"test_fraction": 0.1}
     assert "transfer_function" in spec.baselines and "mlr" in spec.baselines
+    model = registry.create("model", spec.model, **spec.model_params)  # every arm's params build its model
+    assert model.trainer_settings().epochs == 30
     if spec.model == "lstm":  # S3's learning-rate range and LSTM size, not S1's
         assert spec.model_search_space["lr_max"]["high"] == 0.01
         assert spec.model_search_space["hidden_units"] == {"type": "int", "low": 32, "high": 128}

@@ -197,5 +197,20 @@ def _preset_groups(experiment: str | None) -> dict[str, str]:
 
 
 def _did_you_mean(word: str, choices: list[str], prefix: str = "") -> str:
-    close = difflib.get_close_matches(word, choices, n=1, cutoff=0.6)
-    return f" (did you mean '{prefix}{close[0]}'?)" if close else ""
+    """The closest choice by edit distance counting a swap of two neighbours as one edit (``mrl`` -> ``mlr``,
+    not ``mnr``), within a third of the word's length; ties go to difflib's similarity."""
+    limit = max(1, len(word) // 3)
+    scored = [(_edits(word, c), -difflib.SequenceMatcher(None, word, c).ratio(), c) for c in choices]
+    close = min((s for s in scored if s[0] <= limit), default=None)
+    return f" (did you mean '{prefix}{close[2]}'?)" if close else ""
+
+
+def _edits(a: str, b: str) -> int:
+    """Optimal-string-alignment distance; difflib has no edit distance with transpositions, so it is here."""
+    d = [[i + j if i * j == 0 else 0 for j in range(len(b) + 1)] for i in range(len(a) + 1)]
+    for i in range(1, len(a) + 1):
+        for j in range(1, len(b) + 1):
+            d[i][j] = min(d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] != b[j - 1]))
+            if i > 1 and j > 1 and a[i - 1] == b[j - 2] and a[i - 2] == b[j - 1]:
+                d[i][j] = min(d[i][j], d[i - 2][j - 2] + 1)
+    return d[len(a)][len(b)]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import inspect
 import math
+import warnings
 from typing import Any
 
 import optuna
@@ -182,7 +183,8 @@ def check_enqueued_trials_get_their_parameters(factory: Factory, params: dict) -
 def check_fixed_parameters_stay_fixed(factory: Factory, params: dict) -> None:
     """Wrapped in Optuna's ``PartialFixedSampler``, the fixed parameters keep their values in every trial."""
     fixed = {"x": 1.0, "act": "tanh"}
-    with _optuna.quiet():
+    with _optuna.quiet(), warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)  # Optuna marks it experimental
         study = optuna.create_study(sampler=optuna.samplers.PartialFixedSampler(fixed, _sampler(factory, params)))
         study.optimize(_objective, n_trials=SHORT)
     for trial in study.trials:
