@@ -34,6 +34,7 @@ from thermodrift.testing.model_checks import (
     check_model_deterministic,
     check_predictions_in_um,
     check_search_space,
+    check_streaming_equals_batch,
 )
 from thermodrift.testing.estimator_checks import check_clone, check_constructor_only_stores_params
 from thermodrift.testing.optimizer_checks import check_respects_search_space, check_seed_reproducible
@@ -151,6 +152,13 @@ class _Diverging(_Linear):
         return out if self.scale < 10 else out * np.inf
 
 
+class _ClaimsNoMemory(_Linear):
+    """Smooths its inputs over the rows it is given but declares history_length = 0: streaming breaks."""
+
+    def _predict(self, X):
+        return super()._predict(X.expanding().mean())
+
+
 class _RandomPick(Selector):
     def _select(self, X, y):
         return list(np.random.default_rng().choice(X.columns, size=2, replace=False))
@@ -175,6 +183,7 @@ class _OffGrid(optuna.samplers.RandomSampler):
                  id="model-converts-in-init"),
     pytest.param(check_clone, _ConvertsInInit, "clone", id="model-not-clonable"),
     pytest.param(check_search_space, _BadSearchSpace, "not constructor parameters", id="model-space-unknown-param"),
+    pytest.param(check_streaming_equals_batch, _ClaimsNoMemory, "streaming one row", id="model-stream-differs"),
     pytest.param(check_search_space, _Diverging, "non-finite", id="model-space-point-diverges"),
     pytest.param(check_selection_deterministic, _RandomPick, "same seed selected", id="selector-unseeded"),
     pytest.param(check_selection_idempotent, _DropsLast, "refitting on the selected columns", id="selector-unstable"),
@@ -194,7 +203,7 @@ def test_a_sound_model_passes_and_the_report_lists_every_failure():
     check_model(_Linear)
     with pytest.raises(ConformanceError) as err:
         check_model(_Millimetres)
-    assert "failed 1 of 8 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
+    assert "failed 1 of 9 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
 
 
 def test_check_component_includes_the_hydra_config():

@@ -34,8 +34,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="parameter paths to calibrate, globs allowed (repeatable; default: the network's "
                              "capacities, conductances and heat amplitudes)")
     parser.add_argument("--hidden-nodes", type=int, default=2, help="hidden nodes of the auto network (default 2)")
-    parser.add_argument("--max-seconds", type=float, default=90.0,
-                        help="wall-clock limit of the search in s; the best point so far is kept (default 90)")
+    parser.add_argument("--max-evaluations", type=int, default=100,
+                        help="iteration cap of the search per start; it otherwise stops on its tolerances (default 100)")
+    parser.add_argument("--starts", type=int, default=3,
+                        help="starts of the search (the first at the start values, the rest jittered; default 3)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the jittered starts (default 0)")
     parser.add_argument("--level", type=float, default=0.95, help="confidence level of the intervals (default 0.95)")
     parser.add_argument("--tracking-uri", default=None, help="MLflow tracking URI to log the run to (default: none)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -45,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     import yaml
     from tqdm import tqdm
 
-    from thermodrift.core.physics import calibrate as cal
+    from thermodrift.core.physics import calibration as cal
     from thermodrift.core.physics import mismatch
     from thermodrift.core.physics.spec import load_network, network_to_dict
     from thermodrift.core.recording import load_recording
@@ -54,13 +57,16 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--level must be in (0, 1), got {args.level}")
     if args.hidden_nodes < 0:
         raise InputError("--hidden-nodes must be ≥ 0")
+    if args.max_evaluations < 1 or args.starts < 1:
+        raise InputError("--max-evaluations and --starts must be ≥ 1")
     steps = tqdm(total=4, desc="calibrate: loading", unit="step", disable=args.no_progress, leave=False)
     recording = load_recording(args.table, args.manifest)
     network = None if args.network == "auto" else load_network(args.network)
     steps.update()
     steps.set_description("calibrate: fitting")
     result = cal.calibrate(recording, network, free=args.free, targets=args.targets,
-                           hidden_nodes=args.hidden_nodes, max_seconds=args.max_seconds, level=args.level,
+                           hidden_nodes=args.hidden_nodes, max_evaluations=args.max_evaluations,
+                           starts=args.starts, seed=args.seed, level=args.level,
                            progress=not args.no_progress)
     steps.update()
     steps.set_description("calibrate: mismatch map")
@@ -86,8 +92,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _print_summary(result, mm, out: Path) -> None:
+    import sys
+
     print(f"network {result.network.name!r}: {len(result.estimates)} parameters, {result.evaluations} simulations "
-          f"in {result.seconds:.1f} s ({result.stopped})")
+          f"in {result.seconds:.1f} s, stopped on {result.stop.replace('_', ' ')} ({result.stopped}); "
+          f"fit grid {result.fit_samples} samples, step {result.grid_step_s:g} s")
+    if len(result.starts) > 1:
+        print(f"{len(result.starts)} starts: cost max/min {result.spread['cost_max_over_min']:.4g}")
+    for w in result.warnings:
+        print(f"WARNING: {w}", file=sys.stderr)
     print(f"objective {result.cost_initial:.4g} -> {result.cost:.4g}")
     print("RMSE before -> after:")
     for c in result.rmse:

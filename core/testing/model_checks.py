@@ -108,5 +108,30 @@ def check_search_space(factory: Factory, params: dict) -> None:
             study.tell(trial, float(np.sqrt(((pred - y.to_numpy()) ** 2).mean())))
 
 
+STREAM_TOLERANCE_UM = 1e-4
+STREAM_ROWS = 25
+
+
+def check_streaming_equals_batch(factory: Factory, params: dict) -> None:
+    """``streamer(history).update(row)`` over consecutive rows equals ``predict(rows, history)`` within
+    1e-4 µm, with history and without (the contract of ``ThermalModel``, as a controller calls a model)."""
+    X, y = tiny_frames()
+    model = seeded(factory(**params))
+    Xm = _inputs(model, X, y)
+    model.fit(Xm, y)
+    cut = len(Xm) // 2
+    for history in (Xm.iloc[:cut], None):
+        rows = Xm.iloc[cut:cut + STREAM_ROWS] if history is not None else Xm.iloc[:STREAM_ROWS]
+        batch = np.asarray(model.predict(rows, history=history), dtype=float)
+        streamer = model.streamer(history)
+        streamed = np.array([np.asarray(streamer.update(rows.iloc[i]), dtype=float).reshape(-1)
+                             for i in range(len(rows))])
+        assert streamed.shape == batch.shape, f"streamed shape {streamed.shape} != batch shape {batch.shape}"
+        worst = float(np.abs(streamed - batch).max())
+        assert worst <= STREAM_TOLERANCE_UM, (
+            f"streaming one row at a time differs from predict(rows, history) by up to {worst:.3g} µm "
+            f"({'with' if history is not None else 'without'} history); carry the state the batch uses")
+
+
 MODEL_CHECKS = (*SHARED_CHECKS, check_fit_predict_shape, check_predictions_in_um, check_model_deterministic,
-                check_model_pickle, check_search_space)
+                check_model_pickle, check_search_space, check_streaming_equals_batch)
