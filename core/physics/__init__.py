@@ -28,7 +28,7 @@ Modules: :mod:`.network` (elements and :class:`Network`), :mod:`.integrate` (:fu
 :mod:`.scenarios` (:class:`Scenario` and builders), :mod:`.sensors`, :mod:`.spec` (YAML schema),
 :mod:`.mechanisms` (:class:`Mechanism` base), :mod:`.synthetic` (recordings with ground truth),
 :mod:`.calibration` (fitting a network to a recording; its docstring is the API), :mod:`.mismatch` (where the
-calibrated network still misses).
+calibrated network still misses), :mod:`.diagnose` (which mechanism it leaves out: ``thermodrift diagnose``).
 """
 
 from thermodrift.core.physics import scenarios

@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from thermodrift.core.errors import InputError
-from thermodrift.core.physics.calibrate import calibrate
+from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import screening, selection
 from thermodrift.core.physics.diagnose.windows import DriverWindow, condition_blocks, driver_windows
 from thermodrift.core.physics.network import Network

@@ -25,7 +25,7 @@ import numpy as np
 from scipy import stats
 
 from thermodrift.core.errors import InputError
-from thermodrift.core.physics.calibrate import predict
+from thermodrift.core.physics.calibration import predict
 from thermodrift.core.physics.network import Network, TemperatureSensor
 
 # Shapes screened besides the defaults for the built-in mechanisms whose response shape depends on a parameter.

@@ -1,7 +1,7 @@
 """Fitting the most promising candidates by re-simulation and choosing forward.
 
 A candidate's augmented network is calibrated with only the mechanism's own free parameters searched
-(``log`` ones by the calibration's least squares in log space, ``projected`` ones solved linearly with the
+(``log`` ones in log space, ``linear`` ones directly, ``projected`` ones solved linearly with the
 baseline's sensitivities and offsets) on the screening rows; the baseline's parameters stay at their
 calibrated values. Its score is the drop of the noise-weighted residual sum of squares over those rows: with
 known noise σ that is the likelihood-ratio statistic, χ²(free parameters) when nothing is missing, tested at a
@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from thermodrift.core.physics.calibrate import FreeParameter, calibrate
+from thermodrift.core.physics.calibration import FreeParameter, calibrate
 from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, _place_text, baseline_of
 from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
@@ -84,14 +84,15 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     ``weights`` per channel balance the channel kinds for ``dsse_bal``.
     """
     net, declared = _declared(cand, base)
-    net = net.with_values({p: fp.network_value(v) for fp, v in declared if fp.scale == "log" for p in fp.paths})
+    searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
+    net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
     free = []
-    for fp, v in declared:
-        if fp.scale != "log":
-            continue
+    for fp, v in searched:
         lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-        lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a field's limit
-        free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit))
+        if fp.scale == "log":
+            lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
+        free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit,
+                                  log=fp.scale == "log"))
     res = calibrate(fit_recording, net, free=free, intervals=bool(free), level=level,
                     max_evaluations=max_evaluations)
     readings = baseline_of(res.network, scenario, channels, measured, rows).readings
