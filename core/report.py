@@ -53,8 +53,13 @@ def collect(client, parent_id: str) -> pd.DataFrame:
     for run in children:
         tags, params, metrics = run.data.tags, run.data.params, run.data.metrics
         folds = sorted({int(k.split("/")[0][4:]) for k in metrics if k.startswith("fold") and "/" in k})
+        split_params = {k.removeprefix("split.params."): v for k, v in sorted(params.items())
+                        if k.startswith("split.params.") and v not in ("None", "null", "")}
+        split = tags.get("split")
+        if split_params:  # two configs of one split kind (S1's 360/60 and 80/20) stay apart
+            split = f"{split} ({', '.join(f'{k}={v}' for k, v in split_params.items())})"
         base = {"run_id": run.info.run_id, **{t: tags.get(t) for t in ("dataset", "model", "optimizer",
-                                                                        "selector", "split", "protocol")},
+                                                                        "selector", "protocol")}, "split": split,
                 "selected_sensors": params.get("selected_sensors", "")}
         for k in folds:
             prefixes = {f"{tags.get('model')} ({tags.get('optimizer')})": f"fold{k}/test/"}

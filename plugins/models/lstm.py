@@ -62,7 +62,7 @@ class LSTM(TorchThermalModel):
     @classmethod
     def get_test_params(cls):
         return [{"hidden_units": 4, "epochs": 6, "t0": 2, "lr_max": 0.05},
-                {"window": 3, "hidden_units": 2, "epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 64,
+                {"window": 3, "hidden_units": 2, "lr_max": 0.1, "epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 64,
                  "patience": None}]
 
     @classmethod
