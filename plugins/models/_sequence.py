@@ -64,6 +64,27 @@ class SequenceModel(TorchThermalModel):
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
         return self._network(n_inputs, n_outputs)
 
+    def _predict(self, X: pd.DataFrame) -> np.ndarray:
+        # The trainer's _predict rebuilds the network per call; a streamer calls once per row, so the built network
+        # is kept (for the current weights only) and left out of pickles.
+        from thermodrift.core.training import predict, resolve_device
+
+        cached = getattr(self, "_network_cache", None)
+        if cached is None or cached[0] is not self.state_dict_:
+            import torch
+
+            with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
+                module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
+            module.load_state_dict(self.state_dict_)
+            cached = self._network_cache = (self.state_dict_, module.eval())
+        return predict(cached[1], self._inputs(X), self.x_scaler_, self.y_scaler_,
+                       resolve_device(self.trainer_config().device))
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        state.pop("_network_cache", None)
+        return state
+
     def _network(self, n_inputs: int, n_outputs: int) -> nn.Module:
         raise NotImplementedError
 
