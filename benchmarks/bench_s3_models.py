@@ -23,12 +23,14 @@ import numpy as np
 MODELS = ["bp", "lstm", "cnn_lstm", "ma_cnn", "cnn_lstm_transformer", "tcn_lstm", "dltk"]
 
 
-def measure(name: str, X, y, cut: int, params: dict | None = None) -> dict:
+def measure(name: str, rec, sensors: list[str], y, cut: int, params: dict | None = None) -> dict:
     """Fit ``name`` on rows < ``cut``; return its costs (core/efficiency.py), epochs run and held-out metrics (µm)."""
     from thermodrift.core import efficiency, registry
     from thermodrift.core.metrics import evaluate
+    from thermodrift.core.study import model_inputs
 
     model = registry.create("model", name, **(params or {}))
+    X = model_inputs(rec, sensors, type(model), list(y.columns))  # plus the speed etc. a model reads
     start, cpu = time.perf_counter(), time.process_time()
     model.fit(X.iloc[:cut], y.iloc[:cut])
     cpu = time.process_time() - cpu  # CPU seconds: what the fit costs on an idle core, even on a busy machine
@@ -63,7 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.models:
         factory = registry.get("model", name).factory
         params = {"device": args.device} if registry.accepts(factory, "device") else {}
-        r = measure(name, X, y, cut, params)
+        r = measure(name, rec, list(X.columns), y, cut, params)
         print(f"{name:22s}{r['train_s']:9.1f}{r['train_cpu_s']:7.1f}{r['epochs']:7d}{r['n_parameters']:9.0f}{r['latency_batch_ms']:17.4f}"
               f"{r['latency_stream_ms']:16.3f}"
               f"{r['rmse']:9.3f}{r['mae']:8.3f}{r['r2']:7.3f}", flush=True)

@@ -90,11 +90,11 @@ def log_result(result, params: dict[str, Any]) -> None:
     """Log a :class:`~thermodrift.core.study.JobResult` into the active run."""
     mlflow.log_params({k: _short(v) for k, v in _flatten(params).items()})
     mlflow.log_param("selected_sensors", ",".join(result.selected))
-    study = result.study
-    metrics = {"valid/best_rmse": float(study.best_value),
-               "study/n_trials": float(len(study.trials)),
-               "study/n_failed": float(sum(t.state == optuna.trial.TrialState.FAIL for t in study.trials)),
-               "study/n_diverged": float(sum(bool(t.user_attrs.get("diverged")) for t in study.trials))}
+    trials = result.study.trials if result.study is not None else []  # no study when n_trials=0 (untuned)
+    metrics = {"valid/best_rmse": float(result.valid_rmse),
+               "study/n_trials": float(len(trials)),
+               "study/n_failed": float(sum(t.state == optuna.trial.TrialState.FAIL for t in trials)),
+               "study/n_diverged": float(sum(bool(t.user_attrs.get("diverged")) for t in trials))}
     for who in result.folds[0].metrics:
         prefix = ("test",) if who == "model" else ("baseline", who, "test")
         for name, value in result.summary_metrics(who).items():
@@ -163,7 +163,7 @@ def figures(result) -> dict[str, Any]:
         axes[i, 0].legend(fontsize=7)
     axes[-1, 0].set_xlabel("time [h]")
     out["residuals.png"] = fig
-    values = [t.value for t in result.study.trials if t.value is not None]
+    values = [t.value for t in result.study.trials if t.value is not None] if result.study is not None else []
     if values:
         fig = Figure(figsize=(6, 3.5))
         ax = fig.subplots()
