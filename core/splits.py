@@ -163,8 +163,61 @@ class Shuffled(Split):
         return [_fold(np.sort(perm[n_test:]), np.sort(perm[:n_test]), "paper protocol: shuffled rows")]
 
 
+class PaperSession(Split):
+    """PAPER PROTOCOL: a published study's cut of one session (working condition) into consecutive blocks.
+
+    From the first row of the session ``condition`` (a label or substring; None: the first session), the first
+    ``train`` units train, then each entry of ``test`` is one held-out block (one fold each, all on the same
+    training block), in ``unit`` "samples" or "s". S1: 420 samples, train 360 / test 60 (or 336 / 84, the 80/20
+    variant). S2: train 14,000 s / predict 2,000 s, and the generalisation protocol train 12,000 s, predict 2,000 s,
+    then verify on 2,000 s never seen (``test=[2000, 2000]``). Chronological within one session, so it leaks no
+    rows, but it tests only the session the model was trained on: runs are labelled ``protocol=paper``.
+    """
+
+    protocol = "paper"
+
+    def __init__(self, train: float, test: float | list[float], unit: str = "samples",
+                 condition: str | None = None, names: list[str] | None = None):
+        if unit not in ("samples", "s"):
+            raise InputError(f"split.unit must be 'samples' or 's', got {unit!r}")
+        self.train, self.unit, self.condition = train, unit, condition
+        self.test = [float(t) for t in (test if isinstance(test, (list, tuple)) else [test])]
+        self.names = list(names) if names else None
+        if self.train <= 0 or not self.test or min(self.test) <= 0:
+            raise InputError("split.train and every split.test block must be positive")
+        if self.names is not None and len(self.names) != len(self.test):
+            raise InputError(f"split.names needs one name per test block ({len(self.test)})")
+
+    def folds(self, recording) -> list[Fold]:
+        labels = recording.conditions().to_numpy()
+        order = list(dict.fromkeys(labels))
+        wanted = self.condition or order[0]
+        match = [lab for lab in order if wanted == lab or str(wanted) in lab]
+        if not match:
+            raise InputError(f"split.condition {wanted!r} matches none of the conditions {order}")
+        start = int(np.flatnonzero(labels == match[0])[0])
+        if self.unit == "samples":
+            pos = np.arange(len(labels)) - start
+        else:
+            t = recording.time_s
+            pos = t - t[start]
+        bounds = np.cumsum([self.train, *self.test])
+        train = np.flatnonzero((pos >= 0) & (pos < bounds[0]))
+        out = []
+        for k, (lo, hi) in enumerate(zip(bounds[:-1], bounds[1:])):
+            name = (self.names[k] if self.names else f"block {k + 1}") + \
+                f" ({match[0]}: train first {self.train:g} {self.unit}, test {lo:g}-{hi:g} {self.unit})"
+            test = np.flatnonzero((pos >= lo) & (pos < hi))
+            if len(test) < max(1, round(0.9 * (hi - lo) / (1 if self.unit == "samples" else
+                                                        recording.sampling_interval_s))):
+                raise InputError(f"split {name}: the recording has only {len(test)} rows there",
+                                 hint="choose a longer recording or shorter blocks")
+            out.append(_fold(train, test, f"paper protocol: {name}"))
+        return out
+
+
 SPLITS = {"chronological": Chronological, "condition_holdout": ConditionHoldout, "time_window": TimeWindow,
-          "forward_chaining": ForwardChaining, "shuffled": Shuffled}
+          "forward_chaining": ForwardChaining, "shuffled": Shuffled, "paper_session": PaperSession}
 
 
 def make_split(kind: str, seed: int | None = None, **params) -> Split:

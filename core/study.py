@@ -3,7 +3,8 @@ baselines.
 
 What is true for every honest split (``Split.protocol == "honest"``): everything that produces a fold's held-out
 prediction sees only that fold's training rows. Per fold (nested), the selector is fitted on the training part,
-the study tunes on an inner validation fold inside it (``splits.inner_fold``), models scale inside their own
+the study tunes on an inner validation fold inside it (``splits.inner_fold``; a selector that declares a search
+space is tuned jointly with the model: each trial selects on the inner training rows), models scale inside their own
 ``fit``, and the best parameters are refitted on the training part. So the held-out part is touched once, by the
 refit model and the persistence and MLR baselines beside it. A model with history (``history_length != 0``)
 gets, for each contiguous block of rows it predicts, the input rows just before the block as ``history``
@@ -33,11 +34,12 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import efficiency, registry, search_space, splits, training
+from thermodrift.core import efficiency, registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
 
+SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
 INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
 
@@ -54,6 +56,7 @@ class JobSpec:
     dataset_params: dict = field(default_factory=dict)
     model_params: dict = field(default_factory=dict)
     model_search_space: dict | None = None  # None: the model's own default
+    selector_search_space: dict | None = None  # None: the selector's own default; tuned jointly with the model
     selector_params: dict = field(default_factory=dict)
     optimizer_params: dict = field(default_factory=dict)
     split_params: dict = field(default_factory=dict)
@@ -61,7 +64,7 @@ class JobSpec:
     input_roles: tuple[str, ...] = INPUT_ROLES
     baselines: tuple[str, ...] = ("persistence", "mlr")
     seed: int = 0
-    n_trials: int = 20
+    n_trials: int = 20  # per fold's study; 0: no study, the model runs untuned on model_params
     timeout_s: float | None = None
     storage: str | None = "sqlite:///optuna.db"
     study_name: str | None = None
@@ -92,6 +95,7 @@ class FoldResult:
     study: optuna.Study | None = None
     trials_before: int = 0  # finished trials found in the storage before this run
     model: Any = None  # refit on this fold's training part
+    selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
     efficiency: dict[str, float] = field(default_factory=dict)  # the refit model's costs (core/efficiency.py)
 
 
@@ -104,6 +108,7 @@ class JobResult:
     folds: list[FoldResult]
     protocol: str
     notes: list[str] = field(default_factory=list)
+    recording: Any = None  # the recording the job ran on
 
     @property
     def study(self) -> optuna.Study | None:
@@ -126,10 +131,24 @@ class JobResult:
         """Mean over folds of the inner validation RMSE (µm): what a sweep over jobs may minimise."""
         return float(np.mean([f.valid_rmse for f in self.folds]))
 
-    def summary_metrics(self, who: str = "model") -> dict[str, float]:
-        """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
-        names = self.folds[0].metrics[who]["mean"].keys()
-        return {m: float(np.mean([f.metrics[who]["mean"][m] for f in self.folds])) for m in names}
+    def summary_metrics(self, who: str = "model", channel: str = "mean") -> dict[str, float]:
+        """Mean over folds of the metrics of ``who`` ("model" or a baseline name) on ``channel`` (a target, or
+        "mean": the mean over targets)."""
+        names = self.folds[0].metrics[who][channel].keys()
+        return {m: float(np.mean([f.metrics[who][channel][m] for f in self.folds])) for m in names}
+
+    @property
+    def targets(self) -> list[str]:
+        return list(self.folds[0].y_true.columns)
+
+    def same_as(self, atol_um: float = 1e-3) -> str | None:
+        """The baseline whose held-out predictions equal the model's on every row of every fold to ``atol_um``
+        (default 0.001 µm, the precision the metrics are printed with), if any."""
+        for base in self.spec.baselines:
+            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=atol_um)
+                   for f in self.folds):
+                return base
+        return None
 
 
 class Job:
@@ -165,33 +184,44 @@ class Job:
         for k, fold in enumerate(folds, 1):
             name = base if len(folds) == 1 else f"{base}-fold{k}of{len(folds)}"
             results.append(self._fold(recording, fold, features, targets, space, name))
-        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])))
+        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])),
+                         recording=recording)
 
     def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
               study_name: str) -> FoldResult:
         """Select, tune, refit and evaluate on one fold; only ``fold.train`` rows reach selection and tuning."""
         spec = self.spec
         y_all = recording.data[targets]
-        selector = registry.create("selector", spec.selector,
-                                   **_with_seed(registry.get("selector", spec.selector).factory,
-                                                spec.selector_params, spec.seed))
-        selected = selector.fit(recording.data[features].iloc[fold.train], y_all.iloc[fold.train]).selected_
-        frames: dict[str, pd.DataFrame] = {}
+        X_all = recording.data[features]
+        sel_factory = registry.get("selector", spec.selector).factory
+        sel_space = (spec.selector_search_space if spec.selector_search_space is not None
+                     else sel_factory.search_space())
+        sel_space = {f"{SELECTOR_PREFIX}{k}": v for k, v in (sel_space or {}).items()} if spec.n_trials else {}
+        search_space.distributions(sel_space)
 
-        def inputs(model_name: str) -> pd.DataFrame:
-            if model_name not in frames:
+        def fit_selector(params: dict, rows: np.ndarray):
+            sel = registry.create("selector", spec.selector,
+                                  **_with_seed(sel_factory, {**spec.selector_params, **params}, spec.seed))
+            return sel.fit(X_all.iloc[rows], y_all.iloc[rows])
+
+        selector = fit_selector({}, fold.train)
+        frames: dict[tuple, pd.DataFrame] = {}
+
+        def inputs(model_name: str, chosen: list[str] | None = None) -> pd.DataFrame:
+            key = (model_name, tuple(chosen if chosen is not None else selector.selected_))
+            if key not in frames:
                 cls = registry.get("model", model_name).factory
-                frames[model_name] = model_inputs(recording, selected, cls, targets)
-            return frames[model_name]
+                frames[key] = model_inputs(recording, list(key[1]), cls, targets)
+            return frames[key]
 
         inner = splits.inner_fold(recording.select(fold.train))
         inner_train, inner_val = fold.train[inner.train], fold.train[inner.test]
 
-        def validate(params: dict, trial: optuna.Trial | None = None) -> float:
+        def validate(params: dict, trial: optuna.Trial | None = None, chosen: list[str] | None = None) -> float:
             model = self._model(spec.model, params)
             with training.reporting(trial) if trial is not None else contextlib.nullcontext():
-                model.fit(inputs(spec.model).iloc[inner_train], y_all.iloc[inner_train])
-            pred = predict_rows(model, inputs(spec.model), inner_val, allowed=fold.train)
+                model.fit(inputs(spec.model, chosen).iloc[inner_train], y_all.iloc[inner_train])
+            pred = predict_rows(model, inputs(spec.model, chosen), inner_val, allowed=fold.train)
             rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
             if trial is not None:
                 report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
@@ -200,8 +230,14 @@ class Job:
             return rmse
 
         def objective(trial: optuna.Trial) -> float:
+            resume.claim(trial)
+            chosen = None
+            if sel_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
+                sel_params = {k.removeprefix(SELECTOR_PREFIX): v for k, v in search_space.suggest(trial, sel_space).items()}
+                chosen = fit_selector(sel_params, inner_train).selected_
+                trial.set_user_attr("selected", ",".join(chosen))
             try:
-                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial)
+                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial, chosen)
             except training.DivergedError as exc:
                 trial.set_user_attr("diverged", True)
                 trial.set_user_attr("fail_reason", str(exc))
@@ -215,23 +251,31 @@ class Job:
             best, valid = dict(spec.model_params), validate(dict(spec.model_params))
         else:
             study = self._study(study_name)
-            done = sum(t.state in FINISHED for t in study.trials)
+            resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+            done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
             budget = 1 if not space else spec.n_trials
             if done:
                 complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-                self.say(f"study {study_name} resumed: {complete} of {budget} trials complete"
+                self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
                          f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
                          f"{max(0, budget - done)} to run")
-            if done < budget:
-                study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
-                               callbacks=self.callbacks, show_progress_bar=spec.progress)
+            if done < budget:  # other workers on the same study count too: the budget is the study's
+                study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
+                               catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
+                               show_progress_bar=spec.progress)
+            resume.fail_dead_trials(study)  # a worker killed while this one ran
             complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
             if not complete:
                 reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason")
                            for t in study.trials}
                 raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
                                  f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
-            best, valid = {**spec.model_params, **study.best_params}, float(study.best_value)
+            tuned = study.best_params
+            best = {**spec.model_params, **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}}
+            valid = float(study.best_value)
+            if sel_space:  # the best trial's selector parameters, refitted on the whole training part
+                selector = fit_selector({k.removeprefix(SELECTOR_PREFIX): v for k, v in tuned.items()
+                                         if k.startswith(SELECTOR_PREFIX)}, fold.train)
 
         preds: dict[str, np.ndarray] = {}
         model = None
@@ -245,9 +289,9 @@ class Job:
                 model, cost = m, efficiency.measure(m, inputs(name), fold.test, fit_s)
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
-                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selected),
+                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
                           best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
-                          efficiency=cost)
+                          selector=selector, efficiency=cost)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")
@@ -264,9 +308,11 @@ class Job:
     def storage(url: str) -> optuna.storages.RDBStorage:
         """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
         killed run as failed instead of running forever."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        def create() -> optuna.storages.RDBStorage:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        return schema.retrying(create, url)  # workers that start together on a new database
 
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
@@ -277,8 +323,9 @@ class Job:
         sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
                                           **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
-        return optuna.create_study(study_name=name, storage=storage,
-                                   sampler=sampler, direction="minimize", load_if_exists=True)
+        return schema.retrying(lambda: optuna.create_study(
+            study_name=name, storage=storage, sampler=sampler, direction="minimize", load_if_exists=True),
+            spec.storage)
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
@@ -301,23 +348,23 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
 
 def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarray | None = None) -> np.ndarray:
     """``model``'s predictions (µm) for ``rows`` (sorted positions into ``frame``, the model's inputs for every row
-    of the recording). A model with history gets, for each contiguous block of ``rows``, the input rows just
-    before the block as ``history``: every earlier row, or, with ``allowed``, the unbroken run of ``allowed``
-    rows that ends just before the block."""
+    of the recording). A model with history predicts with the input rows before ``rows`` as ``history``: every
+    earlier row (one prediction over the span from the first to the last of ``rows``: inputs only), or, with
+    ``allowed``, per contiguous block of ``rows`` the unbroken run of ``allowed`` rows that ends just before it."""
     if getattr(model, "history_length", 0) == 0:
         return model.predict(frame.iloc[rows])
-    ok = None
-    if allowed is not None:
-        ok = np.zeros(len(frame), dtype=bool)
-        ok[allowed] = True
+    if allowed is None:
+        first = int(rows[0])
+        pred = model.predict(frame.iloc[first:int(rows[-1]) + 1], history=frame.iloc[:first])
+        return pred[rows - first]
+    ok = np.zeros(len(frame), dtype=bool)
+    ok[allowed] = True
     out = []
     for block in np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1):
         start = int(block[0])
-        first = 0
-        if ok is not None:
-            gaps = np.flatnonzero(~ok[:start])
-            first = int(gaps[-1]) + 1 if len(gaps) else 0
-        out.append(model.predict(frame.iloc[block], history=frame.iloc[first:start]))
+        gaps = np.flatnonzero(~ok[:start])
+        begin = int(gaps[-1]) + 1 if len(gaps) else 0
+        out.append(model.predict(frame.iloc[block], history=frame.iloc[begin:start]))
     return np.concatenate(out)
 
 

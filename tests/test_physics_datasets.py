@@ -15,7 +15,7 @@ from thermodrift.plugins.datasets.reference_machines import MACHINES
 
 EXPECTED = {  # name: (temperature-like channels, displacement channels, rows)
     "demo_spindle": (5, 2, 1681),
-    "turning_centre_s1": (19, 1, 3562),
+    "turning_centre_s1": (19, 2, 3562),  # radial error at two positions along Z
     "vmc_spindle_s2": (16, 1, 12161),
     "motorized_spindle_s3": (16, 1, 4682),
 }

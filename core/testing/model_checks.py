@@ -11,6 +11,7 @@ import optuna
 import pandas as pd
 
 from thermodrift.core.errors import InputError
+from thermodrift.core.registry import build
 from thermodrift.core.search_space import distributions, suggest
 from thermodrift.testing import _optuna
 from thermodrift.core.study import model_inputs
@@ -86,7 +87,7 @@ def check_search_space(factory: Factory, params: dict) -> None:
     model = factory(**params)
     space = type(model).search_space()
     assert isinstance(space, dict), f"search_space() must return a dict, got {type(space).__name__}"
-    unknown = sorted(set(space) - set(model.get_params(deep=False)))
+    unknown = sorted(set(space) - set(model.get_params(deep=True)))
     assert not unknown, f"search_space() names {unknown}, which are not constructor parameters"
     try:
         distributions(space)
@@ -101,12 +102,65 @@ def check_search_space(factory: Factory, params: dict) -> None:
             trial = study.ask()
             point = suggest(trial, space)
             try:
-                pred = _fit_predict(seeded(factory(**{**params, **point})), X, y)
+                pred = _fit_predict(seeded(build(factory, {**params, **point})), X, y)
             except Exception as exc:
                 raise AssertionError(f"search-space point {point} failed: {type(exc).__name__}: {exc}") from exc
             assert np.isfinite(pred).all(), f"search-space point {point} gives non-finite predictions"
             study.tell(trial, float(np.sqrt(((pred - y.to_numpy()) ** 2).mean())))
 
 
+STREAM_TOLERANCE_UM = 1e-4
+STREAM_ROWS = 25
+
+
+def check_streaming_equals_batch(factory: Factory, params: dict) -> None:
+    """``streamer(history).update(row)`` over consecutive rows equals ``predict(rows, history)`` within
+    1e-4 µm, with history and without (the contract of ``ThermalModel``, as a controller calls a model)."""
+    X, y = tiny_frames()
+    model = seeded(factory(**params))
+    Xm = _inputs(model, X, y)
+    model.fit(Xm, y)
+    cut = len(Xm) // 2
+    for history in (Xm.iloc[:cut], None):
+        rows = Xm.iloc[cut:cut + STREAM_ROWS] if history is not None else Xm.iloc[:STREAM_ROWS]
+        batch = np.asarray(model.predict(rows, history=history), dtype=float)
+        streamer = model.streamer(history)
+        streamed = np.array([np.asarray(streamer.update(rows.iloc[i]), dtype=float).reshape(-1)
+                             for i in range(len(rows))])
+        assert streamed.shape == batch.shape, f"streamed shape {streamed.shape} != batch shape {batch.shape}"
+        worst = float(np.abs(streamed - batch).max())
+        assert worst <= STREAM_TOLERANCE_UM, (
+            f"streaming one row at a time differs from predict(rows, history) by up to {worst:.3g} µm "
+            f"({'with' if history is not None else 'without'} history); carry the state the batch uses")
+
+
+HISTORY_TOLERANCE_UM = 1e-4  # float32 models included (architecture: "Models as a controller uses them")
+HISTORY_CUT, STREAM_ROWS = 200, 12
+
+
+def check_history_consistent(factory: Factory, params: dict) -> None:
+    """For a model with history (``history_length != 0``): predicting a slice with the input rows before it as
+    ``history`` equals predicting the whole and slicing, and ``streamer(history).update(row)`` row by row equals
+    both (within 1e-4 µm). Memoryless models pass without a fit."""
+    model = seeded(factory(**params))
+    if getattr(model, "history_length", 0) == 0:
+        return
+    X, y = tiny_frames()
+    Xm = _inputs(model, X, y)
+    whole = np.asarray(model.fit(Xm, y).predict(Xm))
+    part = np.asarray(model.predict(Xm.iloc[HISTORY_CUT:], history=Xm.iloc[:HISTORY_CUT]))
+    gap = float(np.max(np.abs(part - whole[HISTORY_CUT:])))
+    assert gap <= HISTORY_TOLERANCE_UM, (
+        f"predict(X[{HISTORY_CUT}:], history=X[:{HISTORY_CUT}]) differs from predict(X)[{HISTORY_CUT}:] by up to "
+        f"{gap:.3g} µm; a prediction must depend only on the rows before it (history) and the rows themselves")
+    stream = model.streamer(Xm.iloc[:HISTORY_CUT])
+    rows = Xm.iloc[HISTORY_CUT:HISTORY_CUT + STREAM_ROWS].to_dict("records")
+    streamed = np.array([np.asarray(stream.update(r), dtype=float).ravel() for r in rows])
+    gap = float(np.max(np.abs(streamed - whole[HISTORY_CUT:HISTORY_CUT + STREAM_ROWS])))
+    assert gap <= HISTORY_TOLERANCE_UM, (
+        f"streamer(history).update(row) differs from the batch prediction by up to {gap:.3g} µm")
+
+
 MODEL_CHECKS = (*SHARED_CHECKS, check_fit_predict_shape, check_predictions_in_um, check_model_deterministic,
-                check_model_pickle, check_search_space)
+                check_model_pickle, check_search_space, check_streaming_equals_batch,
+                check_history_consistent)

@@ -4,7 +4,8 @@ Each prediction reads the last ``window`` input rows (S1: 5) through one LSTM la
 (S1 searched 1–200) and a linear head on the last step's output; inputs and targets are Z-scored, the loss is
 MSE and training stops after at most ``epochs`` (S1: 200). Training runs on the shared trainer: AdamW with SGDR
 warm restarts, gradient clipping and early stopping on the chronological validation tail, where S1 used plain
-Adam at a fixed learning rate; ``lr_max`` spans S1's 0.01–0.15 and is the peak of each SGDR cycle.
+Adam at a fixed learning rate; ``lr_max`` spans S1's 0.01–0.15 and is the peak of each SGDR cycle. The
+defaults (32 units, 0.01) are an untuned choice, S1's baseline LSTM; S1's PSO found 45 units and 0.0941.
 
 The window is the model's memory (``history_length = window − 1``): ``predict(X, history)`` fills the first
 rows' windows from ``history``; without history the first row is repeated (as at a cold start).
@@ -34,7 +35,7 @@ def windows(x: np.ndarray, window: int) -> np.ndarray:
 class LSTM(TorchThermalModel):
     """Temperatures (°C) over the last ``window`` samples → displacements (µm) (see the module docstring)."""
 
-    def __init__(self, window: int = 5, hidden_units: int = 45, lr_max: float = 0.0941, weight_decay: float = 0.0,
+    def __init__(self, window: int = 5, hidden_units: int = 32, lr_max: float = 0.01, weight_decay: float = 0.0,
                  epochs: int = 200, batch_size: int | None = None, t0: int = 50, t_mult: int = 2,
                  eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0, patience: int | None = 3,
                  validation_fraction: float = 0.15, random_state: int = 0, device: str = "auto"):
