@@ -29,7 +29,8 @@ def test_a_linear_model_counts_its_coefficients():
                    baselines=("mlr",), storage=None, progress=False)
     result = Job(spec).run(tiny_recording())
     ridge = result.model.regressor_
-    assert result.folds[-1].efficiency["n_parameters"] == np.size(ridge.coef_) + np.size(ridge.intercept_) == 12  # 2 targets x (5 sensors + 1)
+    # 2 targets x (5 sensors + 1)
+    assert result.folds[-1].efficiency["n_parameters"] == np.size(ridge.coef_) + np.size(ridge.intercept_) == 12
 
 
 def test_an_untuned_job_logs_its_costs_to_mlflow(tmp_path, monkeypatch):
