@@ -102,7 +102,9 @@ def main(argv: list[str] | None = None) -> int:
               f"(load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)")
     df = frame(children(uri))
     print(f"{len(df)} job runs: " + ", ".join(f"{s} {n}" for s, n in df["status"].value_counts().items()))
-    (print_rbmox if args.preset == "s3_rbmox_dltk" else print_ablation)(df)
+    done = df[df["status"] == "FINISHED"]
+    if len(done):
+        (print_rbmox if args.preset == "s3_rbmox_dltk" else print_ablation)(done)
     return 0
 
 

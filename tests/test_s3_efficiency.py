@@ -29,4 +29,22 @@ def test_a_linear_model_counts_its_coefficients():
                    baselines=("mlr",), storage=None, progress=False)
     result = Job(spec).run(tiny_recording())
     ridge = result.model.regressor_
-    assert result.folds[-1].efficiency["n_parameters"] == np.size(ridge.coef_) + np.size(ridge.intercept_) == 12  # 2 targets x (5 sensors + 1)
+    # 2 targets x (5 sensors + 1)
+    assert result.folds[-1].efficiency["n_parameters"] == np.size(ridge.coef_) + np.size(ridge.intercept_) == 12
+
+
+def test_an_untuned_job_logs_its_costs_to_mlflow(tmp_path, monkeypatch):
+    import mlflow
+
+    from thermodrift.core import tracking
+
+    monkeypatch.chdir(tmp_path)
+    spec = JobSpec(dataset="tiny", model="mlr", selector="all", split="chronological", n_trials=0,
+                   baselines=("mlr",), storage=None, progress=False)
+    result = Job(spec).run(tiny_recording())
+    tracking.setup(f"sqlite:///{tmp_path / 'mlflow.db'}", "s3-efficiency")
+    with mlflow.start_run() as run:
+        tracking.log_result(result, {"model": {"name": "mlr"}})
+    metrics = mlflow.get_run(run.info.run_id).data.metrics
+    assert metrics["efficiency/n_parameters"] == 12 and metrics["efficiency/latency_batch_ms"] > 0
+    assert metrics["study/n_trials"] == 0 and metrics["valid/best_rmse"] == pytest.approx(result.valid_rmse)

@@ -32,7 +32,8 @@ from thermodrift.core.components import Selector
 from thermodrift.core.hookspecs import hookimpl
 
 # S3's search space for the clustering
-SPACE = {"min_samples": (2, 20), "min_cluster_size": (2, 20), "alpha": (0.5, 2.0), "cluster_selection_epsilon": (0.0, 0.5)}
+SPACE = {"min_samples": (2, 20), "min_cluster_size": (2, 20), "alpha": (0.5, 2.0),
+         "cluster_selection_epsilon": (0.0, 0.5)}
 # S3's PSO: constant inertia 0.729, c1 = c2 = 1.494, swarm 20 (conf/optimizer/pso_s3.yaml)
 S3_PSO = {"population_size": 20, "form": "inertia", "w_start": 0.729, "w_end": 0.729, "c1": 1.494, "c2": 1.494}
 
