@@ -1,107 +1,188 @@
-"""Physics benchmark: simulation speed, calibration of the auto baseline on FL_THERMAL, and held-out accuracy.
+"""Physics benchmark: calibration you can trust, and physics models as a controller calls them.
 
-Prints one table:
+Prints one table (``measured`` next to ``target``), every row reproducible (seeded, no wall-clock stop; times
+are the only figures that move with the machine):
 
-* simulation — one 46 h run at 15 s of the 15-node reference network (median wall time, target ≤ 0.2 s), through
-  the engine (``physics.simulate``) and through the calibration's modal propagator (``calibrate.trajectory``);
-* calibration — wall time of ``calibrate`` with the ``auto`` network on the whole FL_THERMAL recording (target
-  ≤ 60 s) and its per-channel RMSE (K, µm);
-* held out — ch3 RMSE (µm) of ``lptn``, ``lptn_hybrid`` and ``mlr`` on "FL_THERMAL 5000 rpm held out" (train
-  t < 24.13 h, test 24.13–32.13 h, all 16 temperatures; target: lptn_hybrid below mlr).
+* recovery — the two-node reference network simulated with known parameters, Pt100 offsets and noise for
+  ``--seeds`` seeds, calibrated with its own (true) spec from a wrong start: share of parameters inside their
+  95 % intervals (target ≥ 90 %);
+* null case — a recording with nothing but speed-driven heat (inside the auto family), calibrated with
+  ``--network auto``: worst RMSE / noise σ over channels (target ≤ 1.5); sensor offsets are fitted (projected);
+* FL_THERMAL — the auto calibration of the whole recording (time, stop reason, evaluations), and held-out RMSE
+  per channel ch1–ch5 on ``experiment=fl_thermal_5000rpm_heldout`` (train t < 24.13 h, test 24.13–32.13 h, all
+  16 temperatures) of ``lptn``, ``lptn_hybrid`` and ``mlr`` (targets: ch3 lptn_hybrid ≤ 3.5 µm, lptn ≤ 7 µm);
+* scaling — the null-case programme, 41 h at 15 s (~10 k samples) and at 1.5 s (~100 k; ``--full``: 287 h at
+  1 s, ~1 M): calibration and
+  mismatch-map time and displacement RMSE (target: time at most linear, RMSE at 1 M within 1.5 × of 10 k);
+* streaming — every registered model fitted on the tiny recording: ms per ``streamer.update`` and the largest
+  difference from ``predict(rows, history)`` (target ≤ 0.05 ms for linear, filter and physics models; 1e-4 µm).
 
 Run::
 
-    python benchmarks/bench_physics.py [--data ../shared/data/fl_thermal] [--repeats 5]
+    python benchmarks/bench_physics.py [--data /work/shared/data/fl_thermal] [--seeds 5] [--full]
 """
 
 from __future__ import annotations
 
 import argparse
-import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from thermodrift.core import physics, registry
-from thermodrift.core.physics import calibrate as cal
-from thermodrift.core.physics import scenarios
+from thermodrift.core.physics import calibration as cal
+from thermodrift.core.physics import mismatch, scenarios
+from thermodrift.core.physics.scenarios import Block
+from thermodrift.core.physics.synthetic import synthesize
 from thermodrift.core.splits import TimeWindow
 
 HERE = Path(__file__).resolve().parent
-DEFAULT_DATA = HERE.parent.parent / "shared" / "data" / "fl_thermal"
+TWO_NODE = HERE.parent / "tests" / "data" / "two_node_network.yaml"
+ROWS: list[tuple[str, str, str, str]] = []
 
 
-def simulation_times(repeats: int) -> dict[str, float]:
-    """Median wall time (s) of one FL_THERMAL-programme run of the 15-node reference network."""
-    sys.path.insert(0, str(HERE))
-    from bench_simulation import reference_network, time_simulation
-
-    net, scen = reference_network(), scenarios.fl_thermal(dt_s=15.0)
-    engine = time_simulation(net, scen, repeats=repeats)["median_s"]
-    comp = physics.CompiledNetwork(net)
-    times = []
-    for _ in range(repeats + 1):
-        start = time.perf_counter()
-        cal.trajectory(physics.CompiledNetwork(net), scen)
-        times.append(time.perf_counter() - start)
-    ref = physics.simulate(comp, scen).temperatures.to_numpy()
-    assert np.allclose(cal.trajectory(comp, scen), ref, atol=1e-8), "modal propagator disagrees with the engine"
-    return {"nodes": len(net.nodes), "steps": len(scen), "engine_s": engine, "modal_s": statistics.median(times[1:])}
+def row(case: str, detail: str, measured: str, target: str = "") -> None:
+    ROWS.append((case, detail, measured, target))
+    print(f"  {case}: {measured} ({detail})", flush=True)
 
 
-def held_out(recording) -> dict[str, float]:
-    """ch3 RMSE (µm) on the FL_THERMAL 5000 rpm held-out protocol."""
+def recovery(seeds: int) -> None:
+    truth = physics.load_network(TWO_NODE)
+    values = truth.parameters()
+    start = truth.with_values({"edges.a-b.G_W_K": 4.5, "edges.a-ambient.G_W_K": 0.6, "edges.b-ambient.G_W_K": 6.0,
+                               "sources.heat.viscous_W": 40.0})
+    prog = scenarios.blocks([Block(0.25), Block(2, 3000), Block(1.5), Block(2, 6000), Block(1.5)], 60.0)
+    inside = total = 0
+    stops = set()
+    for seed in range(seeds):
+        result = cal.calibrate(synthesize(truth, prog, seed).recording, start,
+                               free=["edges.*.G_W_K", "sources.heat.viscous_W"])
+        stops.add(result.stop)
+        for e in result.estimates:
+            inside += e.low <= values[e.name] <= e.high
+            total += 1
+    row("recovery, true network", f"{total} parameters over {seeds} seeds, stop: {'/'.join(sorted(stops))}",
+        f"{inside / total:.0%} inside 95 % CI", "≥ 90 %")
+
+
+def speed_only(seed: int, dt_s: float = 15.0, repeats: int = 1):
+    """Nothing but speed-driven heat, four nodes (one hidden), Pt100 offsets; the programme ``repeats`` times."""
+    spec = {
+        "name": "speed_only", "reference_speed_rpm": 5000,
+        "nodes": {n: {"capacity_J_K": 1e4} for n in ("front", "rear", "housing", "h")},
+        "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
+                  for n, g in (("front", 4.0), ("rear", 6.0), ("housing", 3.0), ("h", 1.5))],
+        "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.4}
+                    for n, q in (("front", 40.0), ("rear", 30.0), ("housing", 10.0), ("h", 6.0))},
+        "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"front": 1.0, "housing": 2.0, "h": 3.0}}},
+        "sensors": {"T_front": {"node": "front", "noise_K": 0.02, "offset_K": 0.3},
+                    "T_rear": {"node": "rear", "noise_K": 0.02, "offset_K": -0.2},
+                    "T_housing": {"node": "housing", "noise_K": 0.02}, "dz": {"output": "z", "noise_um": 0.1}},
+    }
+    prog = [Block(0.5)] + [b for n in (1250, 2500, 5000, 3500) for b in (Block(3.0, n), Block(2.0))] * repeats
+    return synthesize(physics.network_from_dict(spec), scenarios.blocks(prog, dt_s), seed).recording
+
+
+NOISE = {"T_front": 0.02, "T_rear": 0.02, "T_housing": 0.02, "dz": 0.1}
+
+
+def null_case(seeds: int) -> None:
+    worst = []
+    for seed in range(seeds):
+        result = cal.calibrate(speed_only(seed), hidden_nodes=1)
+        worst.append(max(result.rmse[c] / s for c, s in NOISE.items()))
+    row("null case, auto network", f"worst RMSE/σ over channels, {seeds} seeds; offsets fitted",
+        f"{max(worst):.2f} (median {np.median(worst):.2f})", "≤ 1.5")
+
+
+def fl_thermal(data: Path) -> None:
+    recording = registry.create("dataset", "fl_thermal", **({"path": str(data)} if data else {}))
+    start = time.perf_counter()
+    result = cal.calibrate(recording)
+    seconds = time.perf_counter() - start
+    row("FL_THERMAL calibration, auto", f"{result.evaluations} simulations, stop: {result.stop}, "
+        f"grid {result.fit_samples} × {result.grid_step_s:g} s", f"{seconds:.1f} s", "tolerance, ≤ 60 s")
+    worse = [w for w in result.warnings]
+    for c in recording.columns("displacement"):
+        row(f"  calibration {c}", "RMSE before -> after", f"{result.rmse_initial[c]:.2f} -> {result.rmse[c]:.2f} µm")
+    row("  calibration warnings", "", str(len(worse)) + (f": {worse[0][:60]}…" if worse else ""))
     fold = TimeWindow(24.13, 24.13, 32.13).folds(recording)[0]
-    temps = recording.columns("temperature")
-    speed = recording.columns("speed")
-    y = recording.data[["ch3(um)"]]
-    out = {}
+    targets = recording.columns("displacement")
+    y = recording.data[targets]
+    from thermodrift.core.study import model_inputs
     for name in ("lptn", "lptn_hybrid", "mlr"):
-        cols = temps + (speed if name.startswith("lptn") else [])
-        X = recording.data[cols]
+        cls = registry.get("model", name).factory
+        X = model_inputs(recording, recording.columns("temperature"), cls, targets)
         start = time.perf_counter()
         model = registry.create("model", name).fit(X.iloc[fold.train], y.iloc[fold.train])
-        pred = model.predict(X.iloc[fold.test])[:, 0]
-        out[name] = float(np.sqrt(np.mean((y.iloc[fold.test].to_numpy()[:, 0] - pred) ** 2)))
-        out[f"{name}_s"] = time.perf_counter() - start
-    return out
+        pred = model.predict(X.iloc[fold.test], history=X.iloc[fold.train])
+        seconds = time.perf_counter() - start
+        err = np.sqrt(np.mean((y.iloc[fold.test].to_numpy() - pred) ** 2, axis=0))
+        target = {"lptn": "ch3 ≤ 7", "lptn_hybrid": "ch3 ≤ 3.5", "mlr": ""}[name]
+        row(f"held out, {name}", f"ch1..ch5, fit+predict {seconds:.0f} s",
+            " ".join(f"{v:.2f}" for v in err) + " µm", target)
+
+
+def scaling(cases: list[tuple[float, int]]) -> None:
+    """Each case (dt s, repeats of the 20.5 h programme): calibrate and map times and the dz RMSE."""
+    base = None
+    for dt, repeats in cases:
+        rec = speed_only(0, dt_s=dt, repeats=repeats)
+        start = time.perf_counter()
+        result = cal.calibrate(rec, hidden_nodes=1, intervals=False)
+        cal_s = time.perf_counter() - start
+        start = time.perf_counter()
+        mismatch.mismatch_map(result)
+        mm_s = time.perf_counter() - start
+        base = base or (len(rec), cal_s, mm_s, result.rmse["dz"])
+        row(f"scaling {len(rec):,} samples", f"dt {dt:g} s, {rec.duration_s / 3600:.0f} h, grid {result.fit_samples}"
+            f" × {result.grid_step_s:g} s, stop {result.stop}",
+            f"calibrate {cal_s:.1f} s, map {mm_s:.2f} s, dz RMSE {result.rmse['dz']:.3f} µm "
+            f"(×{result.rmse['dz'] / base[3]:.2f} of the first)", "linear time; RMSE ≤ 1.5×")
+
+
+def streaming() -> None:
+    from thermodrift.core.study import model_inputs
+    from thermodrift.testing.data import tiny_frames, tiny_recording
+
+    X, y = tiny_frames()
+    for name in registry.names("model"):
+        factory = registry.get("model", name).factory
+        params = factory.get_test_params()[0]
+        model = registry.create("model", name, **params)
+        Xm = model_inputs(tiny_recording(), list(X.columns), factory, list(y.columns)).loc[X.index]
+        model.fit(Xm, y)
+        cut = len(Xm) // 2
+        rows = Xm.iloc[cut:cut + 200]
+        batch = model.predict(rows, history=Xm.iloc[:cut])
+        streamer = model.streamer(Xm.iloc[:cut])
+        items = [rows.iloc[i] for i in range(len(rows))]
+        start = time.perf_counter()
+        out = np.array([streamer.update(r) for r in items])
+        ms = (time.perf_counter() - start) / len(rows) * 1e3
+        row(f"streaming {name}", f"history_length {factory.history_length}",
+            f"{ms:.3f} ms/update, max diff {np.abs(out - batch).max():.1e} µm", "≤ 0.05 ms; ≤ 1e-4 µm")
 
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of the FL_THERMAL workbook")
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--data", type=Path, default=None,
+                        help="folder of the FL_THERMAL workbook (default: the dataset's own lookup)")
+    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--full", action="store_true", help="add the 1 M-sample scaling case")
     args = parser.parse_args(argv)
-    recording = registry.create("dataset", "fl_thermal", path=str(args.data))
-
-    sim = simulation_times(args.repeats)
-    start = time.perf_counter()
-    result = cal.calibrate(recording)
-    cal_s = time.perf_counter() - start
-    ho = held_out(recording)
-
-    rows = [
-        ("simulation, engine", f"{sim['nodes']} nodes, {sim['steps']} steps", f"{sim['engine_s']:.3f} s", "≤ 0.2 s"),
-        ("simulation, modal", f"{sim['nodes']} nodes, {sim['steps']} steps", f"{sim['modal_s']:.3f} s", "≤ 0.2 s"),
-        ("calibration, auto", f"{len(result.estimates)} parameters, {result.evaluations} simulations",
-         f"{cal_s:.1f} s", "≤ 60 s"),
-    ]
-    for c, v in result.rmse.items():
-        unit = "K" if result.channel_kind[c] == "temperature" else "µm"
-        rows.append((f"  RMSE {c}", f"before {result.rmse_initial[c]:.3f} {unit}", f"{v:.3f} {unit}", ""))
-    for name in ("lptn", "lptn_hybrid", "mlr"):
-        target = "< mlr" if name == "lptn_hybrid" else ""
-        rows.append((f"held out ch3, {name}", f"fit+predict {ho[name + '_s']:.1f} s", f"{ho[name]:.2f} µm", target))
-    w = [max(len(r[i]) for r in rows) for i in range(4)]
-    header = ("case", "detail", "measured", "target")
-    print("  ".join(h.ljust(n) for h, n in zip(header, w)))
-    for r in rows:
-        print("  ".join(v.ljust(n) for v, n in zip(r, w)))
-    top = result.unidentifiable
-    if top:
-        print(f"not identifiable: {', '.join(u['parameter'] for u in top)}")
+    fl_thermal(args.data)
+    recovery(args.seeds)
+    null_case(args.seeds)
+    streaming()
+    scaling([(15.0, 2), (1.5, 2)] + ([(1.0, 14)] if args.full else []))
+    w = [max(len(r[i]) for r in ROWS + [("case", "detail", "measured", "target")]) for i in range(4)]
+    print()
+    print("| " + " | ".join(h.ljust(n) for h, n in zip(("case", "detail", "measured", "target"), w)) + " |")
+    print("|" + "|".join("-" * (n + 2) for n in w) + "|")
+    for r in ROWS:
+        print("| " + " | ".join(v.ljust(n) for v, n in zip(r, w)) + " |")
 
 
 if __name__ == "__main__":

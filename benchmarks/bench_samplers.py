@@ -159,9 +159,9 @@ def domain_space() -> dict[str, dict[str, Any]]:
     from thermodrift.core import registry
 
     space = registry.get("model", "bp").factory.search_space()
-    space.update(lr_max={"type": "float", "low": 1e-4, "high": 10.0, "log": True},
-                 clip_norm={"type": "float", "low": 0.1, "high": 100.0, "log": True},
-                 weight_decay={"type": "float", "low": 1e-5, "high": 3.0, "log": True},
+    space.update(trainer__lr_max={"type": "float", "low": 1e-4, "high": 10.0, "log": True},
+                 trainer__clip_norm={"type": "float", "low": 0.1, "high": 100.0, "log": True},
+                 trainer__weight_decay={"type": "float", "low": 1e-5, "high": 3.0, "log": True},
                  activation={"type": "categorical", "choices": ["tanh", "relu"]})
     return space
 
@@ -176,7 +176,7 @@ def domain_run(sampler: str, seed: int, budget: int, epochs: int) -> dict[str, A
     space = domain_space()
 
     def objective(trial: optuna.Trial) -> float:
-        model = registry.create("model", "bp", epochs=epochs, **search_space.suggest(trial, space))
+        model = registry.create("model", "bp", trainer__epochs=epochs, **search_space.suggest(trial, space))
         try:
             model.fit(X.iloc[train], y.iloc[train])
         except DivergedError:

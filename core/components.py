@@ -64,7 +64,9 @@ class ThermalModel(RegressorMixin, Component):
     History and state, as a controller calls a model (the one contract of docs ``architecture.md``):
     ``predict(X, history)`` takes the input rows that precede ``X`` (same columns; never targets) and
     ``streamer(history).update(row)`` predicts one new row at a time, carrying its state; streaming over
-    consecutive rows equals the batch prediction with history. ``history_length`` says how many preceding rows a
+    consecutive rows equals the batch prediction with history (``thermodrift.testing`` checks it for every
+    model, within 1e-4 µm). A row is a pandas Series named by its time in s, as ``X.iloc[i]`` gives it.
+    ``history_length`` says how many preceding rows a
     prediction depends on: 0 (memoryless, the default: history is ignored), k, or ``None`` (the whole past: a
     state). The base class handles all three by prediction over ``history + X``; a model whose state can be
     carried more cheaply overrides :meth:`streamer`.
@@ -121,21 +123,44 @@ class Streamer:
         self.columns = list(model.feature_names_in_)
         past = model._relevant_history(history)
         self._rows = [] if past is None else [r for r in past[self.columns].to_numpy(dtype=float)]
+        self._times = [] if past is None else [float(t) for t in past.index]
         self._attrs = dict(history.attrs) if history is not None else {}
 
+    def values(self, row, columns: list[str] | None = None) -> np.ndarray:
+        """``row``'s values of ``columns`` (default: the model's inputs) as floats. A Series (``X.iloc[i]``) is
+        read by position, the positions looked up once per columns Index: a label lookup per column would
+        cost more than a linear model's whole prediction."""
+        columns = self.columns if columns is None else columns
+        index = getattr(row, "index", None)
+        if index is not None and hasattr(row, "to_numpy"):
+            cache = self.__dict__.setdefault("_positions", {})
+            key = (id(index), id(columns))
+            if key not in cache:
+                cache.clear()
+                cache[key] = (index, np.asarray(index.get_indexer(columns)))
+            pos = cache[key][1]
+            if (pos >= 0).all():
+                return row.to_numpy(dtype=float)[pos]
+        return np.array([float(row[c]) for c in columns])
+
     def update(self, row) -> np.ndarray:
-        """Displacement (µm) per target for one new input ``row`` (a mapping column -> value)."""
-        x = np.array([[float(row[c]) for c in self.columns]])
+        """Displacement (µm) per target for one new input ``row`` (a Series named by its time in s, or a
+        mapping column -> value)."""
+        x = self.values(row)[None, :]
+        name = getattr(row, "name", None)
+        t = float(name) if isinstance(name, (int, float, np.number)) else float(len(self._times))
         if self.model.history_length == 0:
-            return self.model.predict(self._frame(x))[0]
+            return self.model.predict(self._frame(x, [t]))[0]
         self._rows.append(x[0])
+        self._times.append(t)
         if self.model.history_length is not None:
-            del self._rows[:max(0, len(self._rows) - self.model.history_length - 1)]
-        frame = self._frame(np.asarray(self._rows))
+            keep = max(0, len(self._rows) - self.model.history_length - 1)
+            del self._rows[:keep], self._times[:keep]
+        frame = self._frame(np.asarray(self._rows), self._times)
         return self.model.predict(frame.iloc[-1:], history=frame.iloc[:-1])[0]
 
-    def _frame(self, x: np.ndarray) -> pd.DataFrame:
-        frame = pd.DataFrame(x, columns=self.columns)
+    def _frame(self, x: np.ndarray, times: list[float]) -> pd.DataFrame:
+        frame = pd.DataFrame(x, columns=self.columns, index=pd.Index(times, name="time_s"))
         frame.attrs = dict(self._attrs)
         return frame
 

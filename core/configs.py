@@ -9,6 +9,7 @@ Hydra reads the store after every file source, but a YAML and a stored node of o
 
 from __future__ import annotations
 
+import dataclasses
 import importlib.resources
 import inspect
 from pathlib import Path
@@ -34,6 +35,9 @@ def node(component: Component) -> dict[str, Any]:
         if (p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and p.default is not p.empty
                 and not (component.kind == "optimizer" and pname in ("seed", "n_trials")) and _plain(p.default)):
             params[pname] = list(p.default) if isinstance(p.default, tuple) else p.default
+    trainer_defaults = getattr(component.factory, "trainer_defaults", None)  # torch models' TrainerSettings
+    if "trainer" in params and dataclasses.is_dataclass(trainer_defaults):
+        params["trainer"] = dataclasses.asdict(trainer_defaults)  # so `model.params.trainer.epochs=50` works
     cfg: dict[str, Any] = {"name": component.name, "params": params}
     if component.kind == "model":
         space = getattr(component.factory, "search_space", None)
@@ -51,20 +55,24 @@ def _plain(value: Any) -> bool:
     return False
 
 
-def has_yaml(searchpaths: list[str], group: str, name: str) -> bool:
-    """Whether ``<group>/<name>.yaml`` exists in thermodrift's configs or one of ``searchpaths``
-    (``pkg://package.sub`` or ``file://dir`` / a directory)."""
-    relative = f"{group}/{name}.yaml"
+def yaml_files(searchpaths: list[str], group: str) -> dict[str, Any]:
+    """Option name -> YAML file (a path or package resource) of ``group`` in thermodrift's configs and in
+    ``searchpaths`` (``pkg://package.sub`` or ``file://dir`` / a directory); the first path wins, as in Hydra."""
+    found: dict[str, Any] = {}
     for path in (_PRIMARY, *searchpaths):
         if path.startswith("pkg://"):
             try:
-                if importlib.resources.files(path[len("pkg://"):]).joinpath(relative).is_file():
-                    return True
+                folder = importlib.resources.files(path[len("pkg://"):]).joinpath(group)
+                files = list(folder.iterdir()) if folder.is_dir() else []
             except (ModuleNotFoundError, TypeError):  # a search path of an uninstalled package finds nothing
                 continue
-        elif (Path(path.removeprefix("file://")) / relative).is_file():
-            return True
-    return False
+        else:
+            folder = Path(path.removeprefix("file://")) / group
+            files = list(folder.iterdir()) if folder.is_dir() else []
+        for f in files:
+            if f.name.endswith(".yaml"):
+                found.setdefault(f.name[: -len(".yaml")], f)
+    return found
 
 
 def store(registry: Registry) -> None:
@@ -74,7 +82,8 @@ def store(registry: Registry) -> None:
 
     cs = ConfigStore.instance()
     for kind, group in CONFIG_GROUPS.items():
+        shipped = yaml_files(registry.searchpaths, group)
         for name in registry.names(kind):
-            if not has_yaml(registry.searchpaths, group, name):
+            if name not in shipped:
                 component = registry.get(kind, name)
                 cs.store(group=group, name=name, node=node(component), provider=component.origin)

@@ -44,3 +44,9 @@ def thermodrift_register_mechanisms(registry):
 @hookspec
 def thermodrift_hydra_searchpaths(registry):
     """Add Hydra config search paths (``registry.add_searchpath("pkg://my_plugin.conf")``) for the plugin's YAML."""
+
+
+@hookspec
+def thermodrift_hydra_plugins(registry):
+    """Add functions that register Hydra plugins (``registry.add_hydra_plugin(register)``); ``thermodrift run``
+    calls each before Hydra starts (thermodrift's own Optuna sweeper comes in this way)."""

@@ -270,35 +270,47 @@ class Recording:
         return f"{name} [{ch.unit}]: {values.min():.4g} to {values.max():.4g}{meta}"
 
 
-def detect_conditions(time_s: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
-    """Working-condition labels (object array) from a piecewise-constant speed schedule in rpm.
+def speed_segments(time_s: np.ndarray, speed_rpm: np.ndarray) -> list[tuple[int, int, float]]:
+    """Constant-speed stretches ``(start, stop, level rpm)`` (half-open sample ranges) of a speed schedule.
 
-    The speed is median-filtered (``_MEDIAN_WINDOW`` samples) and cut into levels that differ by more than
-    max(25 rpm, 2 % of the top speed); levels shorter than 120 s (ramps, blips) join the next level. A new
-    condition starts at each change to another nonzero level; a stop joins the condition before it; a
-    restart at the same level continues it; leading idle time is ``c00_idle``. Labels name the level
-    rounded to 10 rpm.
+    The project's one speed segmenter (conditions, mismatch windows and calibration start values use it): the
+    speed is median-filtered (``_MEDIAN_WINDOW`` samples) and cut into levels that differ by more than
+    max(25 rpm, 2 % of the top speed); levels shorter than 120 s (ramps, blips) join the next level, and
+    adjacent stretches at the same level are one. The level is the filtered speed's median over the stretch.
     """
     t = np.asarray(time_s, dtype=float)
     v = _median_filter(np.asarray(speed_rpm, dtype=float), _MEDIAN_WINDOW)
     n = len(v)
     if n == 0:
-        return np.array([], dtype=object)
+        return []
     tol = max(_LEVEL_TOL_RPM, _LEVEL_TOL_REL * float(np.abs(v).max()))
     dt = float(np.median(np.diff(t))) if n > 1 else 1.0
     min_len = max(_MIN_LEVEL_SAMPLES, int(math.ceil(_MIN_LEVEL_S / dt))) if dt > 0 else _MIN_LEVEL_SAMPLES
-    segments = _merge_short(_level_starts(v, tol), n, min_len)
-    # Adjacent segments at the same level (after ramps were absorbed) are one segment.
-    merged: list[list[int]] = []
-    for a, b in segments:
-        if merged and abs(np.median(v[a:b]) - np.median(v[merged[-1][0]:merged[-1][1]])) <= tol:
+    merged: list[list] = []
+    for a, b in _merge_short(_level_starts(v, tol), n, min_len):
+        level = float(np.median(v[a:b]))
+        if merged and abs(level - merged[-1][2]) <= tol:
             merged[-1][1] = b
+            merged[-1][2] = float(np.median(v[merged[-1][0]:b]))
         else:
-            merged.append([a, b])
-    labels = np.empty(n, dtype=object)
+            merged.append([a, b, level])
+    return [(int(a), int(b), float(level)) for a, b, level in merged]
+
+
+def detect_conditions(time_s: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
+    """Working-condition labels (object array) from a piecewise-constant speed schedule in rpm.
+
+    Levels come from :func:`speed_segments`. A new condition starts at each change to another nonzero level; a
+    stop joins the condition before it; a restart at the same level continues it; leading idle time is
+    ``c00_idle``. Labels name the level rounded to 10 rpm.
+    """
+    v = np.asarray(speed_rpm, dtype=float)
+    labels = np.empty(len(v), dtype=object)
+    if not len(v):
+        return labels
+    tol = max(_LEVEL_TOL_RPM, _LEVEL_TOL_REL * float(np.abs(_median_filter(v, _MEDIAN_WINDOW)).max()))
     current, level, k = "c00_idle", None, 0
-    for a, b in merged:
-        seg_level = float(np.median(v[a:b]))
+    for a, b, seg_level in speed_segments(time_s, v):
         if abs(seg_level) > tol and (level is None or abs(seg_level - level) > tol):
             k, level = k + 1, seg_level
             current = f"c{k:02d}_{_LABEL_STEP_RPM * round(seg_level / _LABEL_STEP_RPM)}rpm"
@@ -467,7 +479,7 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
     file = str(path)
     if not Path(path).exists():
         raise InputError("manifest file not found", file=file,
-                         hint="pass the YAML that gives every column a role, e.g. --manifest recording.yaml")
+                         hint="check the path of the YAML manifest that gives every column a role")
     limits.check_manifest_file(Path(path))
     try:
         text = Path(path).read_text(encoding="utf-8")

@@ -32,6 +32,9 @@ _HOOKS = {
     "dataset": "thermodrift_register_datasets",
     "mechanism": "thermodrift_register_mechanisms",
 }
+HOOKS = (*_HOOKS.values(), "thermodrift_hydra_searchpaths", "thermodrift_hydra_plugins")
+# What a plugin may raise while loading without stopping the others: anything but KeyboardInterrupt.
+_PLUGIN_FAULTS = (Exception, SystemExit, GeneratorExit)
 # The Hydra config group that configures each kind (conf/<group>/<name>.yaml).
 CONFIG_GROUPS = {"selector": "selector", "model": "model", "optimizer": "optimizer", "dataset": "dataset"}
 
@@ -53,6 +56,7 @@ class Registry:
 
     components: dict[str, dict[str, Component]] = field(default_factory=lambda: {k: {} for k in KINDS})
     searchpaths: list[str] = field(default_factory=list)
+    hydra_plugins: list[Callable[[], None]] = field(default_factory=list)
     failures: dict[str, str] = field(default_factory=dict)  # "distribution (entry point)" -> error
     _origin: str = "<unknown>"
     _module: str = "<unknown>"
@@ -75,6 +79,19 @@ class Registry:
         if path not in self.searchpaths:
             self.searchpaths.append(path)
 
+    def add_hydra_plugin(self, register: Callable[[], None]) -> None:
+        """Add a function that registers Hydra plugins (a sweeper, a launcher) with Hydra; ``thermodrift run``
+        calls it before Hydra starts. Hydra's own scan of ``hydra_plugins`` misses plugins served by an
+        editable install's import hook, so this door works in every install mode."""
+        if register not in self.hydra_plugins:
+            self.hydra_plugins.append(register)
+
+    def drop(self, origin: str, module: str) -> None:
+        """Remove every component that the plugin module ``module`` of distribution ``origin`` registered."""
+        for comps in self.components.values():
+            for name in [n for n, c in comps.items() if (c.origin, c.module) == (origin, module)]:
+                del comps[name]
+
     def names(self, kind: str) -> list[str]:
         """Sorted component names of ``kind``."""
         return sorted(self._of(kind))
@@ -91,7 +108,7 @@ class Registry:
         factory = self.get(kind, name).factory
         if kind == "optimizer" and "seed" in params and not accepts(factory, "seed"):
             raise PluginError(f"optimizer {name!r} factory does not accept a seed")
-        return factory(**params)
+        return build(factory, params)
 
     def _of(self, kind: str) -> dict[str, Component]:
         if kind not in KINDS:
@@ -108,11 +125,23 @@ def accepts(factory: Callable[..., Any], param: str) -> bool:
     return param in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
 
 
+def build(factory: Callable[..., Any], params: dict[str, Any]) -> Any:
+    """``factory(**params)``, where scikit-learn's nested names (``trainer__lr_max``) are set afterwards
+    through the built object's ``set_params``, so a search space can tune a component's nested settings."""
+    nested = {k: v for k, v in params.items() if "__" in k}
+    built = factory(**{k: v for k, v in params.items() if k not in nested})
+    return built.set_params(**nested) if nested else built
+
+
 def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Registry:
     """Load every plugin of the ``thermodrift`` entry-point group into a fresh :class:`Registry`.
 
-    Each plugin's hooks are called one plugin at a time so that every component records the distribution
-    it came from and a failing plugin cannot stop the others.
+    Every hook is called through pluggy, once per implementing plugin (a subset hook caller holding that
+    plugin and every hook wrapper), in pluggy's order (``tryfirst``/``trylast``, then the last registered
+    first; plugins are registered in reverse, so those of equal rank are called in the order of
+    ``entry_points``). So each component records the distribution it came from, wrappers wrap each plugin's
+    call, and a plugin whose import or hook fails is reported by name, keeps none of its components, and
+    the others still load.
     """
     if entry_points is None:
         entry_points = sorted(importlib.metadata.entry_points(group=hookspecs.PROJECT),
@@ -120,32 +149,36 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
     manager = pluggy.PluginManager(hookspecs.PROJECT)
     manager.add_hookspecs(hookspecs)
     registry = Registry()
-    plugins: list[tuple[str, str, str, object]] = []
-    for ep in entry_points:
+    origins: dict[str, tuple[str, str, str]] = {}  # plugin name -> (distribution, failure key, module)
+    for ep in reversed(entry_points):  # pluggy calls the last registered first: calls follow the given order
         origin = ep.dist.name if ep.dist else "<unknown>"
         key, name = f"{origin} ({ep.name})", f"{origin}:{ep.name}"
         try:
-            module = ep.load()
-            manager.register(module, name=name)
+            manager.register(ep.load(), name=name)
             manager.check_pending()  # a misspelled hook fails this plugin only
-        except Exception as exc:  # a broken third-party distribution must not stop the rest
+        except _PLUGIN_FAULTS as exc:  # a broken third-party distribution must not stop the rest
             if manager.get_plugin(name) is not None:
                 manager.unregister(name=name)
             registry.failures[key] = _one_line(exc)
             continue
-        plugins.append((origin, key, ep.value, module))
-    for origin, key, module_name, module in plugins:
-        registry._origin, registry._module = origin, module_name
-        for hook_name in (*_HOOKS.values(), "thermodrift_hydra_searchpaths"):
-            impl = getattr(module, hook_name, None)
-            if impl is None:
+        origins[name] = (origin, key, ep.value)
+    for hook_name in HOOKS:
+        impls = getattr(manager.hook, hook_name).get_hookimpls()
+        wrappers = {i.plugin_name for i in impls if i.hookwrapper or i.wrapper}
+        plain = [i for i in reversed(impls) if i.plugin_name not in wrappers]  # pluggy calls the list reversed
+        for impl in plain:
+            origin, key, module_name = origins[impl.plugin_name]
+            if key in registry.failures:
                 continue
+            others = [i.plugin for i in plain if i is not impl]
+            registry._origin, registry._module = origin, module_name
             try:
-                impl(registry=registry)
+                manager.subset_hook_caller(hook_name, remove_plugins=others)(registry=registry)
             except DuplicateComponentError:
                 raise
-            except Exception as exc:  # same rule as for import failures
+            except _PLUGIN_FAULTS as exc:  # same rule as for import failures; what it added is dropped
                 registry.failures[key] = _one_line(exc)
+                registry.drop(origin, module_name)
     registry._origin = registry._module = "<unknown>"
     return registry
 

@@ -25,6 +25,7 @@ import contextlib
 import hashlib
 import json
 import warnings
+import time
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -33,7 +34,7 @@ import optuna
 import pandas as pd
 import torch
 
-from thermodrift.core import registry, search_space, splits, training
+from thermodrift.core import efficiency, registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
@@ -63,7 +64,7 @@ class JobSpec:
     input_roles: tuple[str, ...] = INPUT_ROLES
     baselines: tuple[str, ...] = ("persistence", "mlr")
     seed: int = 0
-    n_trials: int = 20
+    n_trials: int = 20  # per fold's study; 0: no study, the model runs untuned on model_params
     timeout_s: float | None = None
     storage: str | None = "sqlite:///optuna.db"
     study_name: str | None = None
@@ -95,6 +96,7 @@ class FoldResult:
     trials_before: int = 0  # finished trials found in the storage before this run
     model: Any = None  # refit on this fold's training part
     selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
+    efficiency: dict[str, float] = field(default_factory=dict)  # the refit model's costs (core/efficiency.py)
 
 
 @dataclass
@@ -106,6 +108,7 @@ class JobResult:
     folds: list[FoldResult]
     protocol: str
     notes: list[str] = field(default_factory=list)
+    recording: Any = None  # the recording the job ran on
 
     @property
     def study(self) -> optuna.Study | None:
@@ -128,10 +131,24 @@ class JobResult:
         """Mean over folds of the inner validation RMSE (µm): what a sweep over jobs may minimise."""
         return float(np.mean([f.valid_rmse for f in self.folds]))
 
-    def summary_metrics(self, who: str = "model") -> dict[str, float]:
-        """Mean over folds of the channel-mean metrics of ``who`` ("model" or a baseline name)."""
-        names = self.folds[0].metrics[who]["mean"].keys()
-        return {m: float(np.mean([f.metrics[who]["mean"][m] for f in self.folds])) for m in names}
+    def summary_metrics(self, who: str = "model", channel: str = "mean") -> dict[str, float]:
+        """Mean over folds of the metrics of ``who`` ("model" or a baseline name) on ``channel`` (a target, or
+        "mean": the mean over targets)."""
+        names = self.folds[0].metrics[who][channel].keys()
+        return {m: float(np.mean([f.metrics[who][channel][m] for f in self.folds])) for m in names}
+
+    @property
+    def targets(self) -> list[str]:
+        return list(self.folds[0].y_true.columns)
+
+    def same_as(self, atol_um: float = 1e-3) -> str | None:
+        """The baseline whose held-out predictions equal the model's on every row of every fold to ``atol_um``
+        (default 0.001 µm, the precision the metrics are printed with), if any."""
+        for base in self.spec.baselines:
+            if all(np.allclose(f.predictions["model"], f.predictions[base], rtol=0, atol=atol_um)
+                   for f in self.folds):
+                return base
+        return None
 
 
 class Job:
@@ -167,7 +184,8 @@ class Job:
         for k, fold in enumerate(folds, 1):
             name = base if len(folds) == 1 else f"{base}-fold{k}of{len(folds)}"
             results.append(self._fold(recording, fold, features, targets, space, name))
-        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])))
+        return JobResult(spec, results, split.protocol, notes=list(getattr(recording, "notes", [])),
+                         recording=recording)
 
     def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
               study_name: str) -> FoldResult:
@@ -212,6 +230,7 @@ class Job:
             return rmse
 
         def objective(trial: optuna.Trial) -> float:
+            resume.claim(trial)
             chosen = None
             if sel_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
                 sel_params = {k.removeprefix(SELECTOR_PREFIX): v for k, v in search_space.suggest(trial, sel_space).items()}
@@ -232,16 +251,19 @@ class Job:
             best, valid = dict(spec.model_params), validate(dict(spec.model_params))
         else:
             study = self._study(study_name)
-            done = sum(t.state in FINISHED for t in study.trials)
+            resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+            done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
             budget = 1 if not space else spec.n_trials
             if done:
                 complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-                self.say(f"study {study_name} resumed: {complete} of {budget} trials complete"
+                self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
                          f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
                          f"{max(0, budget - done)} to run")
-            if done < budget:
-                study.optimize(objective, n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
-                               callbacks=self.callbacks, show_progress_bar=spec.progress)
+            if done < budget:  # other workers on the same study count too: the budget is the study's
+                study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
+                               catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
+                               show_progress_bar=spec.progress)
+            resume.fail_dead_trials(study)  # a worker killed while this one ran
             complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
             if not complete:
                 reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason")
@@ -257,16 +279,19 @@ class Job:
 
         preds: dict[str, np.ndarray] = {}
         model = None
+        cost: dict[str, float] = {}
         for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
+            started = time.perf_counter()
             m = self._model(name, params).fit(inputs(name).iloc[fold.train], y_all.iloc[fold.train])
+            fit_s = time.perf_counter() - started
             preds[who] = predict_rows(m, inputs(name), fold.test)
             if who == "model":
-                model = m
+                model, cost = m, efficiency.measure(m, inputs(name), fold.test, fit_s)
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
                           {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
                           best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
-                          selector=selector)
+                          selector=selector, efficiency=cost)
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")
@@ -283,9 +308,11 @@ class Job:
     def storage(url: str) -> optuna.storages.RDBStorage:
         """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
         killed run as failed instead of running forever."""
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        def create() -> optuna.storages.RDBStorage:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
+        return schema.retrying(create, url)  # workers that start together on a new database
 
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
@@ -296,8 +323,9 @@ class Job:
         sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
                                           **spec.optimizer_params)
         storage = self.storage(spec.storage) if spec.storage else None
-        return optuna.create_study(study_name=name, storage=storage,
-                                   sampler=sampler, direction="minimize", load_if_exists=True)
+        return schema.retrying(lambda: optuna.create_study(
+            study_name=name, storage=storage, sampler=sampler, direction="minimize", load_if_exists=True),
+            spec.storage)
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
@@ -320,23 +348,23 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
 
 def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarray | None = None) -> np.ndarray:
     """``model``'s predictions (µm) for ``rows`` (sorted positions into ``frame``, the model's inputs for every row
-    of the recording). A model with history gets, for each contiguous block of ``rows``, the input rows just
-    before the block as ``history``: every earlier row, or, with ``allowed``, the unbroken run of ``allowed``
-    rows that ends just before the block."""
+    of the recording). A model with history predicts with the input rows before ``rows`` as ``history``: every
+    earlier row (one prediction over the span from the first to the last of ``rows``: inputs only), or, with
+    ``allowed``, per contiguous block of ``rows`` the unbroken run of ``allowed`` rows that ends just before it."""
     if getattr(model, "history_length", 0) == 0:
         return model.predict(frame.iloc[rows])
-    ok = None
-    if allowed is not None:
-        ok = np.zeros(len(frame), dtype=bool)
-        ok[allowed] = True
+    if allowed is None:
+        first = int(rows[0])
+        pred = model.predict(frame.iloc[first:int(rows[-1]) + 1], history=frame.iloc[:first])
+        return pred[rows - first]
+    ok = np.zeros(len(frame), dtype=bool)
+    ok[allowed] = True
     out = []
     for block in np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1):
         start = int(block[0])
-        first = 0
-        if ok is not None:
-            gaps = np.flatnonzero(~ok[:start])
-            first = int(gaps[-1]) + 1 if len(gaps) else 0
-        out.append(model.predict(frame.iloc[block], history=frame.iloc[first:start]))
+        gaps = np.flatnonzero(~ok[:start])
+        begin = int(gaps[-1]) + 1 if len(gaps) else 0
+        out.append(model.predict(frame.iloc[block], history=frame.iloc[begin:start]))
     return np.concatenate(out)
 
 

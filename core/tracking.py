@@ -1,9 +1,15 @@
 """MLflow tracking: a parent run per sweep, a child run per job, trial metrics, figures and the final model.
 
-Tags on every job run: ``dataset``, ``selector``, ``model``, ``optimizer``, ``split``, ``ablation`` (so the
-MLflow UI groups and compares them). Metric names: ``test/<metric>`` (mean over displacement channels),
-``test/<channel>/<metric>``, ``baseline/<name>/test/<metric>``, ``trial/value`` and ``trial/best`` per trial,
-all in µm except R², explained variance, VAF (%), relative error (%) and compensation rate.
+Job runs are named ``<dataset> · <model> · <optimizer> · <selector> · <split>`` and carry the recording as an
+MLflow dataset input. Tags on every job run: ``dataset``, ``selector``, ``model``, ``optimizer``, ``split``,
+``ablation`` (so the MLflow UI groups and compares them), ``recording``, ``targets``, ``protocol``,
+``optuna.study`` (the study names, one per fold) and ``optuna.storage``; ``same_as`` when the model's held-out
+predictions equal a baseline's. Metric names: ``test/<metric>`` (mean over displacement channels and folds),
+``test/<channel>/<metric>``, ``baseline/<name>/test/<metric>``, ``baseline/<name>/test/<channel>/rmse``,
+``trial/value`` and ``trial/best`` per trial (``fold<k>/trial/...`` with several folds), all in µm except R²,
+explained variance, VAF (%), relative error (%) and compensation rate.
+Efficiency metrics per job: ``efficiency/train_s``, ``efficiency/latency_batch_ms``, ``efficiency/latency_stream_ms``
+(ms per sample) and ``efficiency/n_parameters``.
 """
 
 from __future__ import annotations
@@ -13,21 +19,24 @@ import os
 import re
 import tempfile
 import time
+import warnings
 from pathlib import Path
 from typing import Any
 
 import mlflow
-import mlflow.sklearn
 import numpy as np
 import optuna
 import pandas as pd
 from hydra.experimental.callback import Callback
-from mlflow.entities import Metric
+from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
+
+from thermodrift.core import artifacts
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
 TAGS = ("dataset", "selector", "model", "optimizer", "split", "ablation")
+FIGURES = "figures"  # artifact folder of a job run's figures
 
 
 def setup(uri: str | None, experiment: str) -> str:
@@ -35,7 +44,6 @@ def setup(uri: str | None, experiment: str) -> str:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)
-    logging.getLogger("mlflow.sklearn").setLevel(logging.ERROR)  # the cloudpickle caution: chosen knowingly
     uri = uri or DEFAULT_URI
     mlflow.set_tracking_uri(uri)
     if mlflow.get_experiment_by_name(experiment) is None and uri.startswith("sqlite:///"):
@@ -54,7 +62,8 @@ def metric_key(*parts: str) -> str:
 
 
 class TrialLogger:
-    """Optuna callback logging each finished trial's value and the running best to the active MLflow run.
+    """Optuna callback logging each finished trial's value and the running best to the active MLflow run
+    (steps: trial numbers; a job with several folds logs ``fold<k>/trial/...`` per fold's study).
 
     Written here because optuna-integration's MLflowCallback is deprecated in Optuna 5 and opens a run per
     trial; we want trial curves inside the job's run.
@@ -65,12 +74,39 @@ class TrialLogger:
         self.client = MlflowClient()
 
     def __call__(self, study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
-        metrics = {f"trial/{trial.state.name.lower()}": 1.0}
-        if trial.state == optuna.trial.TrialState.COMPLETE and trial.value is not None:
-            metrics["trial/value"] = float(trial.value)
-            metrics["trial/best"] = float(study.best_value)
+        best = study.best_value if trial.state == optuna.trial.TrialState.COMPLETE else None
+        self._log(study, [(trial, best)])
+
+    def replay(self, study: optuna.Study, upto: int) -> None:
+        """Log the trials numbered below ``upto`` (those a resumed study found in its storage), with the running
+        best as it was then."""
+        rows, best = [], None
+        for trial in study.trials[:upto]:
+            if trial.state == optuna.trial.TrialState.COMPLETE and trial.value is not None:
+                best = trial.value if best is None else min(best, trial.value)
+            rows.append((trial, best))
+        self._log(study, rows)
+
+    def _log(self, study: optuna.Study, rows) -> None:
+        fold = re.search(r"-fold(\d+)of\d+$", study.study_name)
+        prefix = f"fold{fold[1]}/trial/" if fold else "trial/"
         stamp = int(time.time() * 1000)
-        self.client.log_batch(self.run_id, metrics=[Metric(k, v, stamp, trial.number) for k, v in metrics.items()])
+        metrics = []
+        for trial, best in rows:
+            metrics.append(Metric(f"{prefix}{trial.state.name.lower()}", 1.0, stamp, trial.number))
+            if trial.state == optuna.trial.TrialState.COMPLETE and trial.value is not None:
+                metrics += [Metric(f"{prefix}value", float(trial.value), stamp, trial.number),
+                            Metric(f"{prefix}best", float(best), stamp, trial.number)]
+        for i in range(0, len(metrics), 900):  # MLflow takes at most 1000 metrics per batch
+            self.client.log_batch(self.run_id, metrics=metrics[i:i + 900])
+
+
+def run_name(spec) -> str:
+    """The job's MLflow run name, dataset and model first: ``<dataset> · <model> · <optimizer> · <selector> ·
+    <split>``; a recording file is named by its table's file name."""
+    table = (spec.dataset_params or {}).get("table")
+    dataset = Path(str(table)).name if table else spec.dataset
+    return f"{dataset} · {spec.model} · {spec.optimizer} · {spec.selector} · {spec.split}"
 
 
 def job_tags(names: dict[str, str], ablation: str, protocol: str) -> dict[str, str]:
@@ -86,22 +122,32 @@ def start_job_run(run_name: str, tags: dict[str, str]) -> mlflow.ActiveRun:
 
 
 def log_result(result, params: dict[str, Any]) -> None:
-    """Log a :class:`~thermodrift.core.study.JobResult` into the active run."""
-    mlflow.log_params({k: _short(v) for k, v in _flatten(params).items()})
+    """Log a :class:`~thermodrift.core.study.JobResult` into the active run: config params, the recording as a
+    dataset input, the Optuna studies (tags ``optuna.study``, ``optuna.storage``), held-out metrics of the model
+    and baselines (mean over targets and per target), figures and the last fold's refit model."""
+    mlflow.log_params({k: _short(v) for k, v in flatten(params).items()})
     mlflow.log_param("selected_sensors", ",".join(result.selected))
-    study = result.study
-    metrics = {"valid/best_rmse": float(study.best_value),
-               "study/n_trials": float(len(study.trials)),
-               "study/n_failed": float(sum(t.state == optuna.trial.TrialState.FAIL for t in study.trials)),
-               "study/n_diverged": float(sum(bool(t.user_attrs.get("diverged")) for t in study.trials))}
+    studies = [f.study.study_name for f in result.folds if f.study is not None]
+    mlflow.set_tags({"targets": ",".join(metric_key(t) for t in result.targets),
+                     "optuna.study": _short(",".join(studies) or "none (n_trials=0: untuned)"),
+                     "optuna.storage": str(result.spec.storage)})
+    if result.same_as():
+        mlflow.set_tag("same_as", result.same_as())
+    if result.recording is not None:
+        _log_dataset(result)
+    trials = [t for f in result.folds if f.study is not None for t in f.study.trials]
+    metrics = {"valid/best_rmse": result.valid_rmse,
+               "study/n_trials": float(len(trials)),
+               "study/n_failed": float(sum(t.state == optuna.trial.TrialState.FAIL for t in trials)),
+               "study/n_diverged": float(sum(bool(t.user_attrs.get("diverged")) for t in trials))}
     for who in result.folds[0].metrics:
         prefix = ("test",) if who == "model" else ("baseline", who, "test")
         for name, value in result.summary_metrics(who).items():
             metrics[metric_key(*prefix, name)] = value
-        if who == "model" and len(result.folds) == 1:
-            for channel, per in result.folds[0].metrics[who].items():
-                if channel != "mean":
-                    metrics.update({metric_key("test", channel, n): v for n, v in per.items()})
+        for channel in result.targets:
+            per = result.summary_metrics(who, channel)
+            names = per if who == "model" else ["rmse"]
+            metrics.update({metric_key(*prefix, channel, n): per[n] for n in names})
     for k, fold in enumerate(result.folds, 1):  # per fold too, so a report can tell a protocol's blocks apart
         mlflow.log_param(f"fold{k}/name", _short(fold.name))
         for who, per in fold.metrics.items():
@@ -111,6 +157,8 @@ def log_result(result, params: dict[str, Any]) -> None:
         ref = metrics[metric_key("baseline", base, "test", "rmse")]
         if ref > 0:
             metrics[metric_key("skill_vs", base)] = 1.0 - metrics["test/rmse"] / ref
+    for key in result.folds[-1].efficiency:  # S3 Table 14: training s, latency ms per sample, parameter count
+        metrics[metric_key("efficiency", key)] = float(np.mean([f.efficiency.get(key, np.nan) for f in result.folds]))
     mlflow.log_metrics({k: v for k, v in metrics.items() if np.isfinite(v)})
     mlflow.log_params({f"best/{k}": _short(v) for k, v in result.best_params.items()})
     with tempfile.TemporaryDirectory() as tmp:
@@ -119,15 +167,25 @@ def log_result(result, params: dict[str, Any]) -> None:
         mlflow.log_artifact(str(tmp_path / "comparison.csv"))
         for fig_name, fig in figures(result).items():
             fig.savefig(tmp_path / fig_name, dpi=110, bbox_inches="tight")
-            mlflow.log_artifact(str(tmp_path / fig_name), artifact_path="figures")
+            mlflow.log_artifact(str(tmp_path / fig_name), artifact_path=FIGURES)
         for k, fold in enumerate(result.folds, 1):
             where = "selector" if len(result.folds) == 1 else f"selector/fold{k}"
             for name, path in selector_report(getattr(fold, "selector", None), tmp_path / where).items():
                 mlflow.log_artifact(str(path), artifact_path=where)
-    # Once per job, as an MLflow model (loadable with mlflow.sklearn.load_model). cloudpickle, because skops
-    # refuses estimator classes it does not know, and every plugin model is one.
-    mlflow.sklearn.log_model(result.model, name="model", serialization_format="cloudpickle",
-                             pip_requirements=["thermodrift"])
+    # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
+    artifacts.log_model(result.model, result.spec.model)
+
+
+def _log_dataset(result) -> None:
+    """The recording as the run's MLflow dataset input (name, source, digest and schema in the runs table)."""
+    import mlflow.data
+
+    rec = result.recording
+    name = run_name(result.spec).split(" · ")[0]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # mlflow's notes on schema inference for integer columns
+        dataset = mlflow.data.from_pandas(rec.data.reset_index(), source=str(rec.source), name=name)
+        mlflow.log_input(dataset, context="recording")
 
 
 def selector_report(selector, folder: Path) -> dict[str, Path]:
@@ -154,47 +212,65 @@ def comparison(result) -> pd.DataFrame:
     return pd.DataFrame(rows).T
 
 
+# One style per prediction source, so no curve hides another (persistence lies one sample behind the measurement).
+_STYLES = {"measured": dict(color="0.55", lw=2.6, ls="-"), "model": dict(color="C0", lw=1.3, ls="-"),
+           "persistence": dict(color="C3", lw=1.0, ls=":"), "mlr": dict(color="C2", lw=1.1, ls="--")}
+_OTHER = [dict(color=c, lw=1.1, ls=ls) for c, ls in (("C4", "-."), ("C1", (0, (5, 1, 1, 1))), ("C5", "--"))]
+
+
 def figures(result) -> dict[str, Any]:
-    """Prediction vs measurement, residuals and convergence figures. Plain matplotlib Figures, outside pyplot's
-    registry, so a grid running many jobs in one process does not pile up open figures."""
+    """Prediction vs measurement and residuals on the last fold (RMSE per curve in the legend), and the
+    convergence of each fold's study. Plain matplotlib Figures, outside pyplot's registry, so a grid running many
+    jobs in one process does not pile up open figures."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     out = {}
     fold = result.folds[-1]
     hours = fold.time_s / 3600.0
     k = fold.y_true.shape[1]
-    fig = Figure(figsize=(9, 2.6 * k))
-    axes = fig.subplots(k, 1, squeeze=False, sharex=True)
-    for i, col in enumerate(fold.y_true.columns):
-        ax = axes[i, 0]
-        ax.plot(hours, fold.y_true[col].to_numpy(), color="black", lw=1.2, label="measured")
-        for who, pred in fold.predictions.items():
-            ax.plot(hours, pred[:, i], lw=1, label=_label(result, who),
-                    ls="-" if who == "model" else "--")
-        ax.set_ylabel(f"{col} [µm]")
-        ax.legend(fontsize=7, loc="best")
-    axes[-1, 0].set_xlabel(f"time [h] — {fold.name}")
-    out["prediction_vs_measurement.png"] = fig
-    fig = Figure(figsize=(9, 2.4 * k))
-    axes = fig.subplots(k, 1, squeeze=False, sharex=True)
-    for i, col in enumerate(fold.y_true.columns):
-        for who, pred in fold.predictions.items():
-            axes[i, 0].plot(hours, fold.y_true[col].to_numpy() - pred[:, i], lw=1,
-                            label=_label(result, who))
-        axes[i, 0].axhline(0, color="grey", lw=0.5)
-        axes[i, 0].set_ylabel(f"residual {col} [µm]")
-        axes[i, 0].legend(fontsize=7)
-    axes[-1, 0].set_xlabel("time [h]")
-    out["residuals.png"] = fig
-    values = [t.value for t in result.study.trials if t.value is not None]
-    if values:
-        fig = Figure(figsize=(6, 3.5))
+    title = f"{run_name(result.spec)} — held out: {fold.name}"
+    styles = {who: _STYLES.get(who, _OTHER[i % len(_OTHER)]) for i, who in enumerate(fold.predictions)}
+
+    def legend_label(who: str, col: str) -> str:
+        return f"{_label(result, who)} (RMSE {fold.metrics[who][col]['rmse']:.2f} µm)"
+
+    for fig_name, residual in (("prediction_vs_measurement.png", False), ("residuals.png", True)):
+        fig = Figure(figsize=(9, 2.6 * k + 0.4))
+        axes = fig.subplots(k, 1, squeeze=False, sharex=True)
+        for i, col in enumerate(fold.y_true.columns):
+            ax, y = axes[i, 0], fold.y_true[col].to_numpy()
+            if residual:
+                ax.axhline(0, color="0.3", lw=0.6)
+            else:
+                ax.plot(hours, y, label="measured", **_STYLES["measured"])
+            for who, pred in fold.predictions.items():
+                ax.plot(hours, y - pred[:, i] if residual else pred[:, i], label=legend_label(who, col),
+                        **styles[who])
+            ax.set_ylabel(f"{'residual ' if residual else ''}{col} [µm]")
+            ax.legend(fontsize=7, loc="best")
+        axes[-1, 0].set_xlabel("time [h]")
+        fig.suptitle(("residual (measured − predicted): " if residual else "") + title, fontsize=9)
+        out[fig_name] = fig
+    studies = [(f.name, f.study) for f in result.folds if f.study is not None]
+    if any(t.value is not None for _, s in studies for t in s.trials):
+        fig = Figure(figsize=(6.5, 3.8))
         ax = fig.subplots()
-        ax.plot(values, "o", ms=3, alpha=0.6, label="trial")
-        ax.plot(np.minimum.accumulate(values), lw=1.5, label="best so far")
-        ax.set_xlabel("completed trial")
-        ax.set_ylabel("validation RMSE [µm]")
-        ax.legend()
+        for i, (name, study) in enumerate(studies):
+            done = [t for t in study.trials if t.value is not None]
+            if not done:
+                continue
+            steps = [t.number for t in done]
+            values = np.array([t.value for t in done])
+            tag = f"{name}: " if len(studies) > 1 else ""
+            ax.plot(steps, values, "o", ms=3, alpha=0.5, color=f"C{i}", label=f"{tag}trial")
+            ax.step(steps, np.minimum.accumulate(values), where="post", lw=1.5, color=f"C{i}",
+                    label=f"{tag}best so far ({values.min():.3g} µm)")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.set_xlabel("trial number")
+        ax.set_ylabel("inner validation RMSE [µm]")
+        ax.set_title(f"convergence — {run_name(result.spec)}", fontsize=9)
+        ax.legend(fontsize=7)
         out["convergence.png"] = fig
     return out
 
@@ -203,7 +279,10 @@ class SweepRun(Callback):
     """Hydra callback: opens the sweep's parent MLflow run before the jobs start and closes it after.
 
     The parent's id reaches the jobs (also joblib worker processes) through ``THERMODRIFT_PARENT_RUN_ID``.
-    At the end the parent gets a ``grid.csv`` of every child's held-out metrics.
+    At the end the terminal gets one table of every job (:mod:`thermodrift.core.report_table`) and the parent
+    run's id; the parent gets a ``grid.csv`` of every child's metrics and the metrics, params and ``best_run_id``
+    of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores)
+    among the compensation models (a job tagged ``reference``, such as persistence, only when all are).
     """
 
     def on_multirun_start(self, config, **kwargs) -> None:
@@ -214,12 +293,15 @@ class SweepRun(Callback):
         os.environ[PARENT_ENV] = run.info.run_id
 
     def on_multirun_end(self, config, **kwargs) -> None:
+        from thermodrift.core import report_table
+
         parent = os.environ.pop(PARENT_ENV, None)
         if not parent:
             return
         client = MlflowClient()
         run = client.get_run(parent)
-        children = client.search_runs([run.info.experiment_id], f"tags.mlflow.parentRunId = '{parent}'")
+        children = client.search_runs([run.info.experiment_id], f"tags.mlflow.parentRunId = '{parent}'",
+                                      order_by=["attributes.start_time ASC"])
         rows = [{**{t: c.data.tags.get(t) for t in TAGS}, **c.data.metrics, "run_id": c.info.run_id,
                  "status": c.info.status} for c in children]
         if rows:
@@ -233,7 +315,25 @@ class SweepRun(Callback):
                 report.log_to_parent(client, parent)
             except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
                 client.set_tag(parent, "report_error", str(exc)[:500])
+        finished = [c for c in children if c.info.status == "FINISHED" and "valid/best_rmse" in c.data.metrics]
+        models = [c for c in finished if "reference" not in c.data.tags] or finished  # compensation models first
+        best = min(models, key=lambda c: c.data.metrics["valid/best_rmse"]) if models else None
+        if best is not None:
+            stamp = int(time.time() * 1000)
+            metrics = [Metric(k, v, stamp, 0) for k, v in best.data.metrics.items()
+                       if not k.startswith(("trial/", "fold"))]  # trial curves stay in the job's run
+            params = [Param(k, v) for k, v in best.data.params.items()]
+            for i in range(0, max(len(metrics), len(params)), 100):  # MLflow's batch limits: 1000 / 100
+                client.log_batch(parent, metrics=metrics[i:i + 100], params=params[i:i + 100])
+            client.set_tag(parent, "best_run_id", best.info.run_id)
+            client.set_tag(parent, "best_run_name", best.info.run_name or "")
         client.set_terminated(parent)
+        failed = sum(c.info.status != "FINISHED" for c in children)
+        print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE (µm) "
+              "per target, the baselines beside it:\n"
+              + report_table.format_table(report_table.runs_table(children))
+              + (f"\nbest job by inner validation RMSE: {best.info.run_name} ({best.info.run_id})" if best else "")
+              + f"\nparent MLflow run {parent} at {config.tracking.uri or DEFAULT_URI}", flush=True)
 
 
 def _label(result, who: str) -> str:
@@ -241,12 +341,13 @@ def _label(result, who: str) -> str:
     return f"model: {result.spec.model}" if who == "model" else who
 
 
-def _flatten(d: dict, prefix: str = "") -> dict[str, Any]:
+def flatten(d: dict, prefix: str = "") -> dict[str, Any]:
+    """A nested dict as one level with dotted keys (``{"a": {"b": 1}}`` -> ``{"a.b": 1}``)."""
     out: dict[str, Any] = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
         if isinstance(v, dict):
-            out.update(_flatten(v, key + "."))
+            out.update(flatten(v, key + "."))
         else:
             out[key] = v
     return out

@@ -11,8 +11,12 @@ Models stay unaware of Optuna: a study wraps ``model.fit(...)`` in :func:`report
 calls ``trial.report(val_rmse_um, step=epoch)`` at cycle ends and raises ``optuna.TrialPruned`` when the
 pruner says so. Outside the context nothing is reported.
 
-A torch model subclasses :class:`TorchThermalModel`, names the :class:`TrainerConfig` fields it exposes as
-constructor parameters and implements ``_build(n_inputs, n_outputs) -> nn.Module``. torch is imported where
+A torch model subclasses :class:`TorchThermalModel`: its constructor takes its own hyper-parameters plus
+``trainer`` (overrides of :class:`TrainerSettings`, a dict or a settings object; None keeps the class's
+``trainer_defaults``) and ``random_state``, and it implements ``_build(n_inputs, n_outputs) -> nn.Module``.
+Trainer fields are nested scikit-learn parameters: ``get_params()`` lists ``trainer__lr_max`` and the like,
+``set_params(trainer__lr_max=0.05)`` and ``registry.create("model", name, trainer__lr_max=0.05)`` set them,
+and a search space tunes them under those names (:func:`trainer_search_space`). torch is imported where
 training or prediction starts, not with this module, so loading the plugins (``thermodrift plugins``) does
 not pay for importing torch.
 
@@ -53,11 +57,14 @@ _TRAINER_SEARCH_SPACE: dict[str, dict[str, Any]] = {
     "t_mult": {"type": "int", "low": 1, "high": 3},
     "clip_norm": {"type": "float", "low": 0.1, "high": 10.0, "log": True},
 }
+TRAINER = "trainer"  # the constructor parameter of torch models that holds trainer settings
+_NESTED = f"{TRAINER}__"
 
 
 def trainer_search_space() -> dict[str, dict[str, Any]]:
-    """The stabilisers' search space (lr_max, eta_min_ratio, t0, t_mult, clip_norm), a fresh copy per call."""
-    return copy.deepcopy(_TRAINER_SEARCH_SPACE)
+    """The stabilisers' search space as nested model parameters (``trainer__lr_max``, ``trainer__eta_min_ratio``,
+    ``trainer__t0``, ``trainer__t_mult``, ``trainer__clip_norm``), a fresh copy per call."""
+    return {_NESTED + k: v for k, v in copy.deepcopy(_TRAINER_SEARCH_SPACE).items()}
 
 
 LOSSES = ("mse", "mae", "rmse")
@@ -89,7 +96,7 @@ class DivergedError(RuntimeError):
 
 
 @dataclass(frozen=True)
-class TrainerConfig:
+class TrainerSettings:
     """Trainer settings. Learning rates are per standardised unit; ``patience`` counts cycle ends.
 
     ``batch_size`` None trains full-batch. ``clip_norm`` None disables clipping (norms are still recorded).
@@ -109,7 +116,6 @@ class TrainerConfig:
     patience: int | None = 3
     validation_fraction: float = 0.15
     loss: str = "mse"
-    random_state: int = 0
     device: str = "auto"
     diverge_grad_norm: float = 1e4
     diverge_steps: int = 10
@@ -149,6 +155,7 @@ class TrainReport:
     grad_norm_max: float = math.nan
     clipped_fraction: float = math.nan
     seconds: float = 0.0
+    n_parameters: int = 0  # trainable weights of the network
 
     def metrics(self) -> dict[str, float]:
         """Scalar fields for a tracker (booleans as 0/1)."""
@@ -305,8 +312,10 @@ def _step(params: list[nn.Parameter], optimizer: torch.optim.Optimizer, loss: to
 
 
 # ---------------------------------------------------------------------------------------------------- training
-def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: TrainerConfig) -> TrainResult:
-    """Train the module that ``build()`` returns on inputs ``X`` (n, ..., features) and targets ``y`` (n, k) µm.
+def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: TrainerSettings, *,
+          random_state: int = 0) -> TrainResult:
+    """Train the module that ``build()`` returns on inputs ``X`` (n, ..., features) and targets ``y`` (n, k) µm,
+    seeding weights and batch order from ``random_state``.
 
     Samples must be in time order: the last ``validation_fraction`` of them is the validation tail.
     Returns the weights of the best read point. Raises :class:`DivergedError` on divergence and
@@ -341,14 +350,15 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
     loss_fn = loss_function(config.loss)
     started = time.perf_counter()
 
-    with seeded(config.random_state, device):
+    with seeded(random_state, device):
         module = build().to(device)
         module.train()
         params = [p for p in module.parameters() if p.requires_grad]
+        report.n_parameters = sum(p.numel() for p in params)
         optimizer = torch.optim.AdamW(params, lr=config.lr_max, weight_decay=config.weight_decay)
         scheduler = CosineAnnealingWarmRestarts(optimizer, T_0=config.t0, T_mult=config.t_mult,
                                                 eta_min=config.eta_min_ratio * config.lr_max)
-        shuffle = torch.Generator().manual_seed(config.random_state)
+        shuffle = torch.Generator().manual_seed(random_state)
         best_state: dict[str, torch.Tensor] = {}
         stale = 0
         for epoch in range(config.epochs):
@@ -409,15 +419,18 @@ def predict(module: nn.Module, X: np.ndarray, x_scaler: Standardizer, y_scaler: 
 
 # ---------------------------------------------------------------------------------------------------- base model
 class TorchThermalModel(ThermalModel):
-    """Base for torch models trained by :func:`train`.
+    """Base for torch models trained by :func:`train`; a subclass states only its own hyper-parameters.
 
-    Subclasses take any :class:`TrainerConfig` fields as constructor parameters of the same name (the rest
-    keep the config defaults) and implement ``_build(n_inputs, n_outputs)``. Sequence models override
-    ``_inputs(X)`` to return windows shaped (n, window, features). Fitted attributes: ``state_dict_`` (CPU
-    tensors, so the model pickles without live optimisers), ``x_scaler_``, ``y_scaler_``, ``train_report_``.
+    A subclass's ``__init__`` takes its own hyper-parameters, then ``trainer=None`` and ``random_state=0``, and
+    stores each unchanged; it implements ``_build(n_inputs, n_outputs)`` and may set the class attribute
+    ``trainer_defaults`` (a :class:`TrainerSettings`) to change the defaults of its trainer. ``trainer`` holds
+    overrides of those defaults (a dict of :class:`TrainerSettings` fields, a settings object, or None).
+    Sequence models override ``_inputs(X)`` to return windows shaped (n, window, features). Fitted
+    attributes: ``state_dict_`` (CPU tensors, so the model pickles without live optimisers), ``x_scaler_``,
+    ``y_scaler_``, ``train_report_``.
     """
 
-    _trainer_fields: ClassVar[frozenset[str]] = frozenset(f.name for f in dataclasses.fields(TrainerConfig))
+    trainer_defaults: ClassVar[TrainerSettings] = TrainerSettings()
 
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
         raise NotImplementedError
@@ -425,14 +438,38 @@ class TorchThermalModel(ThermalModel):
     def _inputs(self, X: pd.DataFrame) -> np.ndarray:
         return X.to_numpy(dtype=float)
 
-    def trainer_config(self) -> TrainerConfig:
-        """The trainer settings given by this model's parameters."""
-        params = self.get_params(deep=False)
-        return TrainerConfig(**{k: v for k, v in params.items() if k in self._trainer_fields})
+    def trainer_settings(self) -> TrainerSettings:
+        """The class's ``trainer_defaults`` with this model's ``trainer`` overrides applied.
+
+        Models written before the ``trainer`` parameter state trainer fields (``lr_max``, ``epochs``, ...) as
+        constructor parameters of their own; those are read too, and ``trainer`` overrides them.
+        """
+        own = {k: v for k, v in ThermalModel.get_params(self, deep=False).items() if k in _TRAINER_FIELDS}
+        overrides = {**own, **_overrides(getattr(self, TRAINER, None))}
+        unknown = sorted(set(overrides) - _TRAINER_FIELDS)
+        if unknown:
+            raise ValueError(f"unknown trainer settings {unknown}; known: {', '.join(sorted(_TRAINER_FIELDS))}")
+        return dataclasses.replace(self.trainer_defaults, **overrides)
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Constructor parameters; with ``deep`` also every trainer field as ``trainer__<field>``."""
+        params = super().get_params(deep=False)
+        if deep:
+            params.update({_NESTED + k: v for k, v in dataclasses.asdict(self.trainer_settings()).items()})
+        return params
+
+    def set_params(self, **params: Any) -> "TorchThermalModel":
+        """Set constructor parameters; ``trainer__<field>=value`` adds to the ``trainer`` overrides."""
+        nested = {k[len(_NESTED):]: params.pop(k) for k in list(params) if k.startswith(_NESTED)}
+        super().set_params(**params)
+        if nested:  # a new dict: a shared default or the caller's mapping is never changed in place
+            setattr(self, TRAINER, {**_overrides(getattr(self, TRAINER, None)), **nested})
+        return self
 
     def _fit(self, X: pd.DataFrame, y: np.ndarray) -> None:
         inputs = self._inputs(X)
-        result = train(lambda: self._build(inputs.shape[-1], y.shape[1]), inputs, y, self.trainer_config())
+        result = train(lambda: self._build(inputs.shape[-1], y.shape[1]), inputs, y, self.trainer_settings(),
+                       random_state=self.random_state)
         self.state_dict_ = result.state_dict
         self.x_scaler_, self.y_scaler_ = result.x_scaler, result.y_scaler
         self.train_report_ = result.report
@@ -444,4 +481,15 @@ class TorchThermalModel(ThermalModel):
             module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
         module.load_state_dict(self.state_dict_)
         return predict(module, self._inputs(X), self.x_scaler_, self.y_scaler_,
-                       resolve_device(self.trainer_config().device))
+                       resolve_device(self.trainer_settings().device))
+
+
+_TRAINER_FIELDS = frozenset(f.name for f in dataclasses.fields(TrainerSettings))
+
+
+def _overrides(trainer: TrainerSettings | dict[str, Any] | None) -> dict[str, Any]:
+    if trainer is None:
+        return {}
+    if isinstance(trainer, TrainerSettings):
+        return dataclasses.asdict(trainer)
+    return dict(trainer)

@@ -34,3 +34,13 @@ def test_hydra_options_are_accepted_anywhere():
     flags, rest = _split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
     assert flags == ["-m", "--cfg", "job", "-cn", "other"]
     assert rest == ["model=bp", "seed=1", "x=1"]
+
+
+def test_top_level_search_space_replaces_the_models(cfg_for):
+    assert spec_from_config(cfg_for()).model_search_space == {
+        "alpha": {"type": "float", "low": 1.0e-6, "high": 100.0, "log": True}}
+    assert spec_from_config(cfg_for("search_space={}")).model_search_space == {}
+    narrow = spec_from_config(cfg_for("search_space={alpha: {type: float, low: 0.01, high: 10, log: true}}"))
+    assert narrow.model_search_space == {"alpha": {"type": "float", "low": 0.01, "high": 10, "log": True}}
+    # what the top-level key is for: Hydra merges a dict given to model.search_space into the model's
+    assert set(spec_from_config(cfg_for("model.search_space={}")).model_search_space) == {"alpha"}

@@ -42,10 +42,15 @@ def _recording(n=480, seed=0):
 FAST = dict(epochs=140, t0=20, t_mult=2, lr_max=3e-2, device="cpu")
 
 
+def _fast(**trainer):
+    """A BP network trained briefly on CPU, with ``trainer`` settings on top of FAST."""
+    return BPNetwork(trainer={**FAST, **trainer})
+
+
 def test_learns_nonlinear_drift_far_better_than_a_constant():
     X, y = _recording()
     n_train = 360
-    model = BPNetwork(**FAST).fit(X[:n_train], y[:n_train])
+    model = _fast().fit(X[:n_train], y[:n_train])
     truth = y[n_train:].to_numpy()
     rmse_model = np.sqrt(np.mean((model.predict(X[n_train:]) - truth) ** 2))
     rmse_constant = np.sqrt(np.mean((y[:n_train].to_numpy().mean() - truth) ** 2))
@@ -57,10 +62,10 @@ def test_learns_nonlinear_drift_far_better_than_a_constant():
 
 def test_same_seed_gives_identical_predictions():
     X, y = _recording()
-    params = dict(FAST, epochs=20, batch_size=64)
-    a = BPNetwork(**params, random_state=3).fit(X, y).predict(X)
-    b = BPNetwork(**params, random_state=3).fit(X, y).predict(X)
-    c = BPNetwork(**params, random_state=4).fit(X, y).predict(X)
+    trainer = dict(FAST, epochs=20, batch_size=64)
+    a = BPNetwork(trainer=trainer, random_state=3).fit(X, y).predict(X)
+    b = BPNetwork(trainer=trainer, random_state=3).fit(X, y).predict(X)
+    c = BPNetwork(trainer=trainer, random_state=4).fit(X, y).predict(X)
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
 
@@ -68,7 +73,7 @@ def test_same_seed_gives_identical_predictions():
 def test_huge_learning_rate_raises_diverged():
     X, y = _recording()
     with pytest.raises(DivergedError):
-        BPNetwork(**dict(FAST, lr_max=1e6, epochs=40)).fit(X, y)
+        _fast(lr_max=1e6, epochs=40).fit(X, y)
 
 
 def test_always_pruning_trial_stops_fit():
@@ -76,7 +81,7 @@ def test_always_pruning_trial_stops_fit():
     study = optuna.create_study(pruner=_AlwaysPrune())
     trial = study.ask()
     with reporting(trial), pytest.raises(optuna.TrialPruned):
-        BPNetwork(**FAST).fit(X, y)
+        _fast().fit(X, y)
     study.tell(trial, state=optuna.trial.TrialState.PRUNED)
     assert list(study.trials[0].intermediate_values) == [20]
 
@@ -88,7 +93,7 @@ class _AlwaysPrune(optuna.pruners.BasePruner):
 
 def test_pickle_round_trip_and_clone():
     X, y = _recording()
-    model = BPNetwork(**dict(FAST, epochs=20)).fit(X, y)
+    model = _fast(epochs=20).fit(X, y)
     restored = pickle.loads(pickle.dumps(model))
     assert np.array_equal(restored.predict(X), model.predict(X))
     assert restored.train_report_ == model.train_report_
@@ -101,24 +106,45 @@ def test_pickle_round_trip_and_clone():
 def test_test_params_fit_fast_with_two_outputs(params):
     X, y = _recording(n=120)
     y2 = pd.concat([y, (-0.5 * y).rename(columns={"disp_z_um": "disp_x_um"})], axis=1)
-    model = BPNetwork(**params, device="cpu").fit(X, y2)
+    model = BPNetwork(**params).set_params(trainer__device="cpu").fit(X, y2)
     assert model.predict(X).shape == (120, 2)
-    assert model.train_report_.epochs_run == params["epochs"]
+    assert model.train_report_.epochs_run == params["trainer"]["epochs"]
 
 
 def test_registered_and_yaml_mirrors_class_defaults():
     assert isinstance(registry.load().create("model", "bp", hidden_units=5), BPNetwork)
     conf = yaml.safe_load((importlib.resources.files("thermodrift.conf.model") / "bp.yaml").read_text())
     assert conf["name"] == "bp"
-    # random_state is left out so that the run's `seed` reaches the model
-    assert conf["params"] == {k: v for k, v in BPNetwork().get_params().items() if k != "random_state"}
+    # random_state is left out so that the run's `seed` reaches the model; the trainer block lists every field
+    assert "random_state" not in conf["params"]
+    def resolved(model):  # every parameter, trainer fields as trainer__<field>
+        return {k: v for k, v in model.get_params().items() if k != "trainer"}
+
+    assert resolved(BPNetwork(**conf["params"])) == resolved(BPNetwork())
     assert conf["search_space"] == BPNetwork.search_space()
     space = distributions(conf["search_space"])
-    assert {"hidden_layers", "hidden_units", "lr_max", "eta_min_ratio", "t0", "t_mult", "clip_norm"} <= set(space)
+    assert {"hidden_layers", "hidden_units", "trainer__lr_max", "trainer__eta_min_ratio", "trainer__t0",
+            "trainer__t_mult", "trainer__clip_norm"} <= set(space)
     assert space["hidden_units"].low == 3 and space["hidden_units"].high == 13
 
 
 def test_bad_activation_is_rejected():
     X, y = _recording(n=60)
     with pytest.raises(ValueError, match="activation"):
-        BPNetwork(activation="swish", epochs=1).fit(X, y)
+        BPNetwork(activation="swish", trainer={"epochs": 1}).fit(X, y)
+
+
+def test_trainer_fields_are_nested_params_that_round_trip_through_clone_and_create():
+    model = BPNetwork(hidden_units=5)
+    params = model.get_params()
+    assert params["trainer"] is None and params["trainer__lr_max"] == 1e-2 and params["trainer__epochs"] == 300
+    model.set_params(trainer__lr_max=0.05, trainer__epochs=7)
+    assert model.trainer == {"lr_max": 0.05, "epochs": 7}
+    assert model.trainer_settings().lr_max == 0.05 and model.trainer_settings().t0 == 20
+    fresh = clone(model)
+    assert fresh.get_params() == model.get_params() and fresh.trainer is not model.trainer
+    assert BPNetwork().trainer is None  # the class default was not changed in place
+    built = registry.load().create("model", "bp", hidden_units=4, trainer={"epochs": 3}, trainer__t0=2)
+    assert built.trainer_settings().epochs == 3 and built.trainer_settings().t0 == 2
+    with pytest.raises(ValueError, match="unknown trainer settings"):
+        BPNetwork(trainer={"lr": 0.1}).trainer_settings()

@@ -12,7 +12,7 @@ import pytest
 
 from thermodrift.core import physics
 from thermodrift.core.errors import InputError
-from thermodrift.core.physics import calibrate as cal
+from thermodrift.core.physics import calibration as cal
 from thermodrift.core.physics import scenarios
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
@@ -47,7 +47,7 @@ def test_known_parameters_fall_inside_their_intervals_over_seeds():
                                                       "edges.b-ambient.G_W_K", "sources.heat.viscous_W"}
         for e in result.estimates:
             assert e.low <= values[e.name] <= e.high, (seed, e)
-            assert e.ratio < 1.05, f"interval of {e.name} is uninformative: {e}"  # the test must be able to fail
+            assert e.ratio < 1.1, f"interval of {e.name} is uninformative: {e}"  # the test must be able to fail
         assert not result.unidentifiable
         # noise σ from the high-frequency residual matches the simulated sensor noise
         assert result.sigma["T_a"] == pytest.approx(0.01, rel=0.3)
@@ -72,14 +72,6 @@ def test_series_conductances_without_a_sensor_between_are_reported_unidentifiabl
     assert g1 * g2 / (g1 + g2) == pytest.approx(1.2, rel=0.01)
     heat = result.estimate("sources.heat.viscous_W")
     assert heat.low <= 60.0 <= heat.high and heat.ratio < 1.05
-
-
-def test_trajectory_matches_the_engine_with_a_varying_ambient():
-    net = physics.load_network("demo_spindle")
-    scen = scenarios.demo(dt_s=60.0)
-    fast = cal.trajectory(physics.CompiledNetwork(net), scen)
-    ref = physics.simulate(net, scen).temperatures.to_numpy()
-    assert np.abs(fast - ref).max() < 1e-8
 
 
 def _auto_truth_recording(seed=0):
@@ -137,13 +129,68 @@ def test_bad_free_pattern_and_targets_are_input_errors():
         cal.calibrate(rec, truth, free=FREE, targets=["T_a"])
 
 
-def test_time_limit_keeps_the_best_point():
+def test_fit_is_deterministic_on_a_slowed_clock(monkeypatch):
+    """No wall-clock stop: a clock that jumps an hour per reading changes nothing but the reported seconds."""
+    import time as time_module
+
     truth = physics.load_network(TWO_NODE)
     rec = synthesize(truth, _scenario(), 0).recording
     start = truth.with_values({"edges.a-b.G_W_K": 9.0})
-    result = cal.calibrate(rec, start, free=FREE, max_seconds=0.0)
-    assert "time limit" in result.stopped
+    first = cal.calibrate(rec, start, free=FREE, starts=2, seed=3)
+    ticks = iter(range(0, 10**9, 3600))
+    monkeypatch.setattr(time_module, "perf_counter", lambda: float(next(ticks)))
+    monkeypatch.setattr(time_module, "time", lambda: float(next(ticks)))
+    second = cal.calibrate(rec, start, free=FREE, starts=2, seed=3)
+    assert first.stop == second.stop == "tolerance"
+    assert first.evaluations == second.evaluations
+    assert [e.value for e in first.estimates] == [e.value for e in second.estimates]
+    assert first.rmse == second.rmse and first.cost <= first.cost_initial
+
+
+def test_evaluation_cap_is_reported_and_keeps_the_best_point():
+    truth = physics.load_network(TWO_NODE)
+    rec = synthesize(truth, _scenario(), 0).recording
+    start = truth.with_values({"edges.a-b.G_W_K": 9.0})
+    result = cal.calibrate(rec, start, free=FREE, max_evaluations=2)
+    assert result.stop == "evaluation_cap"
     assert result.cost <= result.cost_initial
+    assert all(result.rmse[c] <= result.rmse_initial[c] for c in result.rmse if result.channel_kind[c] == "displacement")
+
+
+def _speed_only_recording(seed, samples_per_15s=1, hours=None):
+    """Nothing but speed-driven heat: a network inside the auto family, the FL_THERMAL-like programme."""
+    spec = {
+        "name": "speed_only", "reference_speed_rpm": 5000,
+        "nodes": {"front": {"capacity_J_K": 1e4}, "rear": {"capacity_J_K": 1e4}, "housing": {"capacity_J_K": 1e4},
+                  "h": {"capacity_J_K": 1e4}},
+        "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
+                  for n, g in (("front", 4.0), ("rear", 6.0), ("housing", 3.0), ("h", 1.5))],
+        "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.4}
+                    for n, q in (("front", 40.0), ("rear", 30.0), ("housing", 10.0), ("h", 6.0))},
+        "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"front": 1.0, "housing": 2.0, "h": 3.0}}},
+        "sensors": {"T_front": {"node": "front", "noise_K": 0.02, "offset_K": 0.3},
+                    "T_rear": {"node": "rear", "noise_K": 0.02, "offset_K": -0.2},
+                    "T_housing": {"node": "housing", "noise_K": 0.02},
+                    "dz": {"output": "z", "noise_um": 0.1}},
+    }
+    net = physics.network_from_dict(spec)
+    prog = [Block(0.5)] + [b for n in (1250, 2500, 5000, 3500) for b in (Block(3.0, n), Block(2.0))]
+    scen = scenarios.blocks(prog, 15.0 / samples_per_15s)
+    return net, synthesize(net, scen, seed).recording
+
+
+def test_auto_network_reaches_the_noise_floor_when_nothing_is_missing():
+    """The null case: speed-driven heat only; every channel ends within 1.5 × its noise σ, none gets worse."""
+    _, rec = _speed_only_recording(0)
+    result = cal.calibrate(rec, hidden_nodes=1, starts=2)
+    noise = {"T_front": 0.02, "T_rear": 0.02, "T_housing": 0.02, "dz": 0.1}
+    for c, sigma in noise.items():
+        assert result.rmse[c] <= 1.5 * sigma, (c, result.rmse[c], result.rmse_initial[c])
+    assert result.rmse["dz"] <= result.rmse_initial["dz"]
+    assert result.stop == "tolerance"
+    assert result.to_dict()["rmse"] == result.rmse and "rmse_initial" in result.to_dict()
+    for name, (lo, hi) in result.linear_ci["dz"].items():  # every sensitivity has a finite interval
+        assert lo is not None and hi is not None and lo <= result.linear["dz"][name] <= hi
 
 
 def test_calibrate_cli_auto_writes_every_output(tmp_path):
@@ -154,7 +201,7 @@ def test_calibrate_cli_auto_writes_every_output(tmp_path):
     env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
     proc = subprocess.run([sys.executable, "-m", "thermodrift.core.cli", "calibrate", str(table), "--manifest",
                            str(manifest), "--network", "auto", "--hidden-nodes", "1", "--out", str(out),
-                           "--max-seconds", "30", "--no-progress"], capture_output=True, text=True, env=env,
+                           "--starts", "2", "--no-progress"], capture_output=True, text=True, env=env,
                           timeout=300)
     assert proc.returncode == 0, proc.stderr
     for name in ("calibration.json", "calibrated_network.yaml", "mismatch.json", "mismatch_heatmap.png",
@@ -163,6 +210,7 @@ def test_calibrate_cli_auto_writes_every_output(tmp_path):
     doc = json.loads((out / "calibration.json").read_text(encoding="utf-8"))
     assert doc["assumptions"] and "heat_exponent" in doc["estimates"]
     assert doc["rmse"]["dz"] < doc["rmse_initial"]["dz"]
+    assert doc["objective"]["stop"] in ("tolerance", "evaluation_cap") and len(doc["starts"]) == 2
     assert json.loads((out / "mismatch.json").read_text(encoding="utf-8"))["ranked_windows"]
     assert "top mismatch windows" in proc.stdout
     calibrated = physics.load_network(str(out / "calibrated_network.yaml"))
@@ -171,3 +219,17 @@ def test_calibrate_cli_auto_writes_every_output(tmp_path):
                           str(manifest), "--targets", "T1", "--out", str(out)], capture_output=True, text=True,
                          env=env, timeout=120)
     assert bad.returncode == 2 and "not displacement channels" in bad.stderr
+
+
+def test_fit_grid_follows_the_recordings_time_scales_not_its_sampling():
+    """The same programme at 15 s and at 1 s is fitted on the same grid: every speed change on it."""
+    grids = []
+    for dt in (15.0, 1.0):
+        scen = scenarios.blocks([Block(0.5)] + [b for n in (1250, 5000) for b in (Block(3.0, n), Block(2.0))], dt)
+        t, speed = scen.time_s, scen.frame["speed_rpm"].to_numpy()
+        rows, step = cal.fit_rows(t, speed, time_constants_s=[1800.0])
+        changes = np.flatnonzero(np.diff(speed)) + 1
+        assert set(changes) <= set(rows)
+        grids.append((step, len(rows)))
+    assert grids[0] == grids[1]  # shortest block 0.5 h / 8 = 225 s, however finely sampled
+    assert grids[0][0] == 225.0 and grids[0][1] < 200

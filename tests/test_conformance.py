@@ -35,9 +35,15 @@ from thermodrift.testing.model_checks import (
     check_model_deterministic,
     check_predictions_in_um,
     check_search_space,
+    check_streaming_equals_batch,
 )
 from thermodrift.testing.estimator_checks import check_clone, check_constructor_only_stores_params
-from thermodrift.testing.optimizer_checks import check_respects_search_space, check_seed_reproducible
+from thermodrift.testing.optimizer_checks import (
+    check_dynamic_search_space,
+    check_respects_search_space,
+    check_seed_reproducible,
+    check_survives_failed_and_pruned_trials,
+)
 from thermodrift.testing.selector_checks import check_selection_deterministic, check_selection_idempotent
 from thermodrift.testing.suite import CHECKS
 
@@ -152,6 +158,13 @@ class _Diverging(_Linear):
         return out if self.scale < 10 else out * np.inf
 
 
+class _ClaimsNoMemory(_Linear):
+    """Smooths its inputs over the rows it is given but declares history_length = 0: streaming breaks."""
+
+    def _predict(self, X):
+        return super()._predict(X.expanding().mean())
+
+
 class _RandomPick(Selector):
     def _select(self, X, y):
         return list(np.random.default_rng().choice(X.columns, size=2, replace=False))
@@ -168,6 +181,25 @@ class _OffGrid(optuna.samplers.RandomSampler):
         return distribution.high + 1 if isinstance(distribution, optuna.distributions.IntDistribution) else value
 
 
+class _BestSoFar(optuna.samplers.RandomSampler):
+    """Reads every finished trial's value, which a failed trial lacks."""
+
+    def sample_independent(self, study, trial, name, distribution):
+        sum(t.value + 0.0 for t in study.get_trials(deep_copy=False) if t.state.is_finished())
+        return super().sample_independent(study, trial, name, distribution)
+
+
+class _FirstRangeOnly(optuna.samplers.RandomSampler):
+    """Samples each parameter from the first distribution it saw under that name."""
+
+    def __init__(self, seed=None):
+        super().__init__(seed=seed)
+        self.seen = {}
+
+    def sample_independent(self, study, trial, name, distribution):
+        return super().sample_independent(study, trial, name, self.seen.setdefault(name, distribution))
+
+
 @pytest.mark.parametrize("check,factory,message", [
     pytest.param(check_predictions_in_um, _Millimetres, "prediction RMS", id="model-in-mm"),
     pytest.param(check_model_deterministic, _Unseeded, "same seed differ", id="model-unseeded"),
@@ -176,6 +208,7 @@ class _OffGrid(optuna.samplers.RandomSampler):
                  id="model-converts-in-init"),
     pytest.param(check_clone, _ConvertsInInit, "clone", id="model-not-clonable"),
     pytest.param(check_search_space, _BadSearchSpace, "not constructor parameters", id="model-space-unknown-param"),
+    pytest.param(check_streaming_equals_batch, _ClaimsNoMemory, "streaming one row", id="model-stream-differs"),
     pytest.param(check_search_space, _Diverging, "non-finite", id="model-space-point-diverges"),
     pytest.param(check_selection_deterministic, _RandomPick, "same seed selected", id="selector-unseeded"),
     pytest.param(check_selection_idempotent, _DropsLast, "refitting on the selected columns", id="selector-unstable"),
@@ -183,6 +216,10 @@ class _OffGrid(optuna.samplers.RandomSampler):
                  id="optimizer-ignores-seed"),
     pytest.param(check_respects_search_space, lambda seed=None: _OffGrid(seed=seed), "is outside",
                  id="optimizer-leaves-bounds"),
+    pytest.param(check_survives_failed_and_pruned_trials, lambda seed=None: _BestSoFar(seed=seed),
+                 "broke after failed and pruned trials: TypeError", id="optimizer-breaks-on-a-failed-trial"),
+    pytest.param(check_dynamic_search_space, lambda seed=None: _FirstRangeOnly(seed=seed), "is outside",
+                 id="optimizer-keeps-an-old-range"),
     pytest.param(check_returns_recording, lambda: pd.DataFrame({"t": [1.0]}), "not a thermodrift Recording",
                  id="dataset-not-a-recording"),
 ])
@@ -195,7 +232,7 @@ def test_a_sound_model_passes_and_the_report_lists_every_failure():
     check_model(_Linear)
     with pytest.raises(ConformanceError) as err:
         check_model(_Millimetres)
-    assert "failed 1 of 8 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
+    assert "failed 1 of 9 checks" in str(err.value) and "check_predictions_in_um [params {}]" in str(err.value)
 
 
 def test_a_component_without_yaml_composes_from_its_registry_entry():

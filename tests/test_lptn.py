@@ -14,7 +14,7 @@ from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
 from thermodrift.plugins.models.lptn import LPTN, LPTNHybrid, input_roles
 
-CHEAP = {"hidden_nodes": 1, "max_seconds": 20.0, "max_fit_samples": 800}
+CHEAP = {"hidden_nodes": 1, "max_evaluations": 50}
 
 # A spindle node heated by the speed and a column node that follows the room's daily cycle; the drift reads both.
 SPEC = {
@@ -57,17 +57,22 @@ def test_fit_predict_shapes_for_one_and_two_channels(frames):
             assert np.isfinite(model.predict(X)).all()
 
 
-def test_prediction_continues_the_training_history(frames):
-    """Predicting the test part alone equals predicting everything and keeping the test rows."""
+def test_prediction_with_history_and_streaming_continue_the_observer(frames):
+    """predict(test, history=train) equals predicting everything and keeping the test rows; a streamer started
+    on the training rows gives the same, one row at a time; an observer uses the measured temperatures."""
     X, y, cut = frames
-    model = LPTN(**CHEAP).fit(X.iloc[:cut], y.iloc[:cut])
-    alone = model.predict(X.iloc[cut:])
-    whole = model.predict(X)
-    assert np.allclose(alone, whole[cut:], atol=1e-9)
-    inside = model.predict(X.iloc[cut // 2:])  # starts inside the training data: re-simulated from its start
-    assert np.allclose(inside, whole[cut // 2:], atol=1e-9)
-    assert not np.allclose(model.predict(X.iloc[cut:].set_axis(X.index[cut:] + 86400.0)), alone, atol=1e-3), \
-        "a day's gap (inputs held) must change the continued state"
+    for cls in (LPTN, LPTNHybrid):
+        model = cls(**CHEAP).fit(X.iloc[:cut], y.iloc[:cut])
+        assert cls.history_length is None
+        whole = model.predict(X)
+        assert np.allclose(model.predict(X.iloc[cut:], history=X.iloc[:cut]), whole[cut:], atol=1e-9)
+        streamer = model.streamer(X.iloc[:cut])
+        rows = X.iloc[cut:cut + 200]
+        streamed = np.array([streamer.update(rows.iloc[i]) for i in range(len(rows))])
+        assert np.abs(streamed - whole[cut:cut + 200]).max() < 1e-4
+    warmer = X.iloc[cut:].assign(T_spindle=X["T_spindle"].iloc[cut:] + 1.0)
+    assert not np.allclose(model.predict(warmer, history=X.iloc[:cut]), whole[cut:], atol=1e-3), \
+        "the measured temperatures must move the prediction"
 
 
 def test_hybrid_corrects_an_effect_the_baseline_leaves_out(frames):
@@ -106,7 +111,7 @@ def test_registered_with_configs_and_search_spaces():
     names = registry.names("model")
     assert {"lptn", "lptn_hybrid"} <= set(names)
     for name, cls in (("lptn", LPTN), ("lptn_hybrid", LPTNHybrid)):
-        assert cls.extra_input_roles == ("speed", "ambient")
+        assert cls.extra_input_roles == ("temperature", "speed", "ambient")
         conf = yaml.safe_load((importlib.resources.files("thermodrift.conf.model") / f"{name}.yaml").read_text())
         assert conf["name"] == name
         model = registry.create("model", name, **conf["params"])

@@ -90,3 +90,31 @@ def test_no_test_row_reaches_selection_tuning_or_refit(reg, case):
         for i, (what, rows) in enumerate(calls):
             if i != held_out:
                 assert not rows & test, f"{case} {fold.name}: test rows reach the {what} call #{i}"
+
+
+class RunningSum(MLR):
+    """A stateful toy: the prediction is the running sum of the first input column over history and X."""
+
+    history_length = None
+
+    def _fit(self, X, y):
+        self.k_ = y.shape[1]
+
+    def _predict(self, X):
+        return np.repeat(np.cumsum(X.iloc[:, 0].to_numpy())[:, None], self.k_, axis=1)
+
+
+def test_predict_rows_gives_history_models_only_the_rows_before():
+    import pandas as pd
+
+    from thermodrift.core.study import predict_rows
+
+    frame = pd.DataFrame({"T": np.ones(10)})
+    model = RunningSum().fit(frame, pd.DataFrame({"y": np.zeros(10)}))
+    # held-out: every earlier input row is history, also across gaps between held-out blocks
+    np.testing.assert_array_equal(predict_rows(model, frame, np.array([5, 6, 7]))[:, 0], [6, 7, 8])
+    np.testing.assert_array_equal(predict_rows(model, frame, np.array([2, 8]))[:, 0], [3, 9])
+    # inner validation: only the unbroken run of allowed (training) rows just before each block
+    allowed = np.array([0, 1, 4, 5, 6, 7])
+    np.testing.assert_array_equal(predict_rows(model, frame, np.array([6, 7]), allowed)[:, 0], [3, 4])
+    np.testing.assert_array_equal(predict_rows(model, frame, np.array([1, 5]), allowed)[:, 0], [2, 2])

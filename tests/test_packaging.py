@@ -39,6 +39,9 @@ def test_every_plugin_folder_is_a_listed_package():
 
 def test_entry_points_name_existing_modules():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    dirs = meta["tool"]["setuptools"]["package-dir"]
     for name, target in meta["project"]["entry-points"]["thermodrift"].items():
-        rel = target.removeprefix("thermodrift.plugins.").replace(".", "/")
-        assert (ROOT / "plugins" / f"{rel}.py").exists(), f"entry point {name} -> {target} has no module"
+        package = max((p for p in dirs if target == p or target.startswith(p + ".")), key=len)
+        rel = ROOT / dirs[package] / target[len(package):].lstrip(".").replace(".", "/")
+        assert rel.with_suffix(".py").exists() or (rel / "__init__.py").exists(), (
+            f"entry point {name} -> {target} has no module")

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import textwrap
 import uuid
+from pathlib import Path
 
 import optuna
 import pytest
@@ -141,12 +142,78 @@ def test_the_module_api_builds_builtin_and_third_party_components():
     assert registry.create("model", "ridge_demo", alpha=0.1).get_params() == {"alpha": 0.1}
 
 
-def test_the_third_party_model_comes_from_its_distribution():
+def test_the_third_party_components_come_from_their_distribution():
     reg = registry.load()
-    component = reg.get("model", "ridge_demo")
-    assert (component.origin, component.module) == ("thermodrift-example-plugin", "thermodrift_example_plugin")
-    assert "pkg://thermodrift_example_plugin.conf" in reg.searchpaths
+    for kind, name, module in [("model", "ridge_demo", "thermodrift_example_plugin"),
+                               ("selector", "variance_top_k", "thermodrift_example_plugin.selectors"),
+                               ("optimizer", "sobol_demo", "thermodrift_example_plugin.samplers")]:
+        component = reg.get(kind, name)
+        assert (component.origin, component.module) == ("thermodrift-example-plugin", module)
     assert all(reg.get("model", n).origin == "thermodrift" for n in ("mlr", "persistence"))
+
+
+def test_hooks_run_through_pluggy_in_its_order_and_wrappers_wrap_each_plugin(make_dist):
+    order_hook = """
+        from thermodrift.core.hookspecs import hookimpl
+
+        @hookimpl({spec})
+        def thermodrift_register_models(registry):
+            registry.add("selector", "{name}", lambda: None)
+            registry.add("model", "{name}", lambda: None)
+    """
+    plain = make_dist("plain-plugin", {"m": order_hook.format(spec="", name="plain")})
+    last = make_dist("last-plugin", {"m": order_hook.format(spec="trylast=True", name="last")})
+    first = make_dist("first-plugin", {"m": order_hook.format(spec="tryfirst=True", name="first")})
+    wrapper = make_dist("wrapper-plugin", {"w": """
+        from thermodrift.core.hookspecs import hookimpl
+
+        @hookimpl(wrapper=True)
+        def thermodrift_register_models(registry):
+            before = {k: set(v) for k, v in registry.components.items()}
+            result = yield
+            added = sorted(n for n in registry.components["model"] if n not in before["model"])
+            registry.add("mechanism", "wrapped_" + "_".join(added), lambda: None)
+            return result
+    """})
+
+    reg = registry.load(last + plain + first + wrapper)
+
+    assert list(reg.components["model"]) == ["first", "plain", "last"]  # tryfirst, plain, trylast
+    assert reg.names("mechanism") == ["wrapped_first", "wrapped_last", "wrapped_plain"]  # one call per plugin
+    assert reg.get("mechanism", "wrapped_plain").origin == "plain-plugin"  # the wrapped plugin's origin
+    assert {reg.get("model", n).origin for n in ("first", "plain", "last")} == {
+        "first-plugin", "plain-plugin", "last-plugin"}
+
+
+def test_a_plugin_that_fails_halfway_keeps_none_of_its_components(make_dist):
+    half = make_dist("half-plugin", {"h": """
+        from thermodrift.core.hookspecs import hookimpl
+
+        @hookimpl
+        def thermodrift_register_models(registry):
+            registry.add("model", "half_done", lambda: None)
+            raise RuntimeError("config file missing")
+    """})
+    reg = registry.load(half + make_dist("fine-plugin", {"models": LINEAR_MODEL.format(model="fine_linear")}))
+    assert reg.names("model") == ["fine_linear"]
+    assert reg.failures == {next(iter(reg.failures)): "RuntimeError: config file missing"}
+    assert next(iter(reg.failures)).startswith("half-plugin (")
+
+
+def test_the_hydra_sweeper_comes_through_the_entry_point_door():
+    from hydra_plugins.thermodrift_sweeper import register
+
+    assert registry.load().hydra_plugins == [register]
+    source = (Path(registry.__file__).parent / "cli" / "run.py").read_text()
+    assert "thermodrift_sweeper" not in source  # run.py knows no concrete Hydra plugin
+
+
+def test_physics_is_pure_computation():
+    """The mismatch map imports neither the tracking module nor MLflow: logging belongs to the verb."""
+    code = ("import sys; import thermodrift.core.physics.mismatch; "
+            "print(' '.join(m for m in ('thermodrift.core.tracking', 'mlflow') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert not out, f"importing the mismatch map imported {out}"
 
 
 def test_loading_every_plugin_imports_neither_torch_nor_scipy_signal():

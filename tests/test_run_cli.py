@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import signal
 import sqlite3
 import subprocess
@@ -10,7 +11,7 @@ import time
 from pathlib import Path
 
 import mlflow
-import mlflow.sklearn
+import mlflow.pyfunc
 import pytest
 
 from thermodrift.testing.data import tiny_recording
@@ -71,7 +72,7 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     assert {"figures/prediction_vs_measurement.png", "figures/residuals.png"} <= figs
     (logged,) = mlflow.search_logged_models(experiment_ids=[run.info.experiment_id], output_format="list")
     assert logged.source_run_id == run.info.run_id
-    model = mlflow.sklearn.load_model(f"models:/{logged.model_id}")
+    model = mlflow.pyfunc.load_model(f"models:/{logged.model_id}")
     X = tiny_recording(seed=0).data[run.data.params["selected_sensors"].split(",")]
     assert model.predict(X).shape == (len(X), 2)
     history = client.get_metric_history(run.info.run_id, "trial/value")
@@ -80,19 +81,64 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
 
 def test_parallel_grid_makes_one_parent_and_tagged_children(workdir):
     out = thermodrift(workdir, "run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-                      "model=mlr,persistence", *TINY, "n_trials=2")
+                      "model=mlr,persistence", "split=chronological,condition_holdout", *TINY, "n_trials=2")
     assert out.returncode == 0, out.stderr[-2000:]
     all_runs = runs(workdir)
     parents = [r for r in all_runs if r.data.tags.get("kind") == "sweep"]
     children = [r for r in all_runs if "mlflow.parentRunId" in r.data.tags]
-    assert len(parents) == 1 and len(children) == 2
-    assert {c.data.tags["mlflow.parentRunId"] for c in children} == {parents[0].info.run_id}
-    assert sorted(c.data.tags["model"] for c in children) == ["mlr", "persistence"]
-    assert parents[0].info.status == "FINISHED"
-    artifacts = [a.path for a in mlflow.MlflowClient().list_artifacts(parents[0].info.run_id)]
+    assert len(parents) == 1 and len(children) == 4
+    parent = parents[0]
+    assert {c.data.tags["mlflow.parentRunId"] for c in children} == {parent.info.run_id}
+    assert sorted(c.data.tags["model"] for c in children) == ["mlr", "mlr", "persistence", "persistence"]
+    assert parent.info.status == "FINISHED"
+    artifacts = [a.path for a in mlflow.MlflowClient().list_artifacts(parent.info.run_id)]
     assert "grid.csv" in artifacts
     sweep_dirs = list((workdir / "multirun").iterdir())
-    assert len(sweep_dirs) == 1 and (sweep_dirs[0] / "0").is_dir() and (sweep_dirs[0] / "1").is_dir()
+    assert len(sweep_dirs) == 1 and all((sweep_dirs[0] / str(i)).is_dir() for i in range(4))
+    # the terminal: one summary table of all jobs, then the parent run's id
+    lines = out.stdout.splitlines()
+    head = next(i for i, ln in enumerate(lines) if ln.startswith("grid: 4 jobs"))
+    header = lines[head + 1].split()
+    assert header[:5] == ["dataset", "selector", "model", "optimizer", "split"]
+    assert {"disp_z_um", "disp_x_um", "mlr", "persistence", "wall_s"} <= set(header)
+    assert sum(ln.startswith("tiny.csv") for ln in lines[head + 2:head + 6]) == 4
+    assert f"parent MLflow run {parent.info.run_id}" in out.stdout
+    # the parent carries the best compensation model's (by validation RMSE) metrics and params
+    assert {c.data.tags["model"] for c in children if "reference" in c.data.tags} == {"persistence"}
+    best = min((c for c in children if c.data.tags["model"] == "mlr"), key=lambda c: c.data.metrics["valid/best_rmse"])
+    assert parent.data.tags["best_run_id"] == best.info.run_id
+    assert parent.data.metrics["test/rmse"] == best.data.metrics["test/rmse"]
+    assert parent.data.params["model.name"] == best.data.tags["model"]
+
+
+def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdir):
+    first = thermodrift(workdir, "run", *TINY, "n_trials=2")
+    assert first.returncode == 0 and " resumed: " not in first.stdout, first.stderr[-2000:]
+    second = thermodrift(workdir, "run", *TINY, "n_trials=2")
+    assert second.returncode == 0, second.stderr[-2000:]
+    (line,) = [ln for ln in second.stdout.splitlines() if " resumed: " in ln]
+    assert line.startswith("study recording_file-") and line.endswith("resumed: 2 of 2 trials complete, 0 to run")
+    latest = max(runs(workdir), key=lambda r: r.info.start_time)
+    history = mlflow.MlflowClient().get_metric_history(latest.info.run_id, "trial/value")
+    assert sorted(h.step for h in history) == [0, 1]
+
+
+def test_untuned_job_output_names_targets_references_and_figures(workdir):
+    out = thermodrift(workdir, "run", *TINY, "n_trials=0")
+    assert out.returncode == 0, out.stderr[-2000:]
+    text = out.stdout
+    assert "targets (µm): disp_z_um, disp_x_um" in text and "untuned (n_trials=0)" in text
+    # untuned MLR on its defaults is the MLR baseline, and the output says so
+    assert "note: the model's held-out predictions equal the mlr baseline's (within 0.001 µm)" in text
+    assert "persistence reads the measured target of the previous sample: a reference, not a compensation model" \
+        in text
+    (run,) = runs(workdir)
+    assert f"figures: {run.info.artifact_uri}/figures/" in text
+    assert run.info.run_name.startswith("tiny.csv · mlr · ")
+    assert run.data.metrics["study/n_trials"] == 0 and run.data.tags["same_as"] == "mlr"
+    assert run.data.tags["optuna.storage"] == "sqlite:///thermodrift.optuna.db"
+    (inp,) = run.inputs.dataset_inputs
+    assert inp.dataset.name == "tiny.csv" and "tiny" in inp.dataset.source
 
 
 def test_bad_input_is_one_line_and_exit_2(workdir):
@@ -108,6 +154,24 @@ def test_bad_input_is_one_line_and_exit_2(workdir):
     assert bad_target.returncode == 2 and "T_column" in bad_target.stderr and "Traceback" not in bad_target.stderr
 
 
+def test_missing_recording_file_and_verb_errors_are_one_clean_line(workdir):
+    out = thermodrift(workdir, "run", "dataset=recording_file")
+    assert out.returncode == 2 and "???" not in out.stderr and "--manifest" not in out.stderr
+    assert out.stderr.strip().splitlines() == [
+        "thermodrift: error: dataset.params.table, dataset.params.manifest have no value: add "
+        "dataset.params.table=<value> dataset.params.manifest=<value> to the command"]
+    no_manifest = thermodrift(workdir, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
+                              "dataset.params.manifest=nope.yaml")
+    assert no_manifest.returncode == 2 and "nope.yaml" in no_manifest.stderr
+    assert "--manifest" not in no_manifest.stderr
+    for verb in (["simulate", "--hours", "-1", "--out", "sim"], ["calibrate", "tiny.csv", "--manifest", "nope.yaml"]):
+        out = thermodrift(workdir, *verb)
+        # a terminal shows each \r- or \n-separated piece from the line start: the error has a piece to itself
+        pieces = [p.strip() for p in re.split(r"[\r\n]", out.stderr) if p.strip()]
+        assert out.returncode == 2 and pieces[-1].startswith("thermodrift: error:"), (verb, out.stderr)
+        assert not any("%|" in p and "error" in p for p in pieces)
+
+
 def _complete_trials(db: Path) -> list[tuple[int, float]]:
     if not db.exists():
         return []
@@ -120,7 +184,7 @@ def _complete_trials(db: Path) -> list[tuple[int, float]]:
 
 
 def test_killed_study_resumes_and_keeps_completed_trials(workdir):
-    args = [*EXE, "run", *TINY, "model=bp", "model.params.epochs=60", "n_trials=8", "optimizer=random"]
+    args = [*EXE, "run", *TINY, "model=bp", "model.params.trainer.epochs=60", "n_trials=8", "optimizer=random"]
     env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
     proc = subprocess.Popen(args, cwd=workdir, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             start_new_session=True)

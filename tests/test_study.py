@@ -87,6 +87,8 @@ def test_a_model_without_search_space_runs_one_trial(reg, rec):
     result = Job(spec(model="persistence", n_trials=10)).run(rec)
     assert len(result.study.trials) == 1
     np.testing.assert_allclose(result.summary_metrics("model")["rmse"], result.summary_metrics("persistence")["rmse"])
+    assert result.same_as() == "persistence"
+    assert Job(spec(n_trials=0, model_params={"alpha": 100.0})).run(rec).same_as() is None
 
 
 @pytest.mark.parametrize("optimizer", ["pso", "pso_constriction", "rbmox"])
@@ -115,3 +117,17 @@ def test_each_fold_has_its_own_study_that_resumes(reg, rec, tmp_path):
     assert [f.study.study_name for f in second.folds] == names
     assert all(len(f.study.trials) == 3 and f.trials_before == 2 for f in second.folds)
     assert said == [f"study {n} resumed: 2 of 3 trials complete, 1 to run" for n in names]
+
+
+def test_zero_trials_runs_the_model_untuned_on_its_defaults(reg, rec):
+    result = Job(spec(n_trials=0, model_params={"alpha": 3.0})).run(rec)
+    assert result.study is None and result.best_params == {"alpha": 3.0}
+    assert result.model.alpha == 3.0 and np.isfinite(result.valid_rmse)
+    mlr_default = Job(spec(n_trials=0, model="mlr", model_params={})).run(rec)
+    # untuned MLR on its defaults is the MLR baseline
+    np.testing.assert_array_equal(mlr_default.folds[0].predictions["model"], mlr_default.folds[0].predictions["mlr"])
+
+
+def test_an_empty_search_space_runs_one_trial_on_the_defaults(reg, rec):
+    result = Job(spec(model_search_space={}, n_trials=5)).run(rec)
+    assert len(result.study.trials) == 1 and result.best_params == {}

@@ -10,7 +10,7 @@ from torch import nn
 from torch.optim.optimizer import register_optimizer_step_pre_hook
 
 from thermodrift.core.training import (
-    DivergedError, Standardizer, TrainerConfig, cycle_ends, predict, reporting, train, trainer_search_space)
+    DivergedError, Standardizer, TrainerSettings, cycle_ends, predict, reporting, train, trainer_search_space)
 
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
@@ -31,7 +31,7 @@ def _mlp():
 
 def _config(**kw):
     base = dict(lr_max=3e-2, epochs=21, t0=3, t_mult=2, patience=None, validation_fraction=0.2, device="cpu")
-    return TrainerConfig(**{**base, **kw})
+    return TrainerSettings(**{**base, **kw})
 
 
 class _AlwaysPrune(optuna.pruners.BasePruner):
@@ -59,11 +59,11 @@ def test_standardizer_round_trips_and_keeps_constant_features_finite():
 
 def test_config_rejects_invalid_settings():
     with pytest.raises(ValueError, match="t_mult"):
-        TrainerConfig(t_mult=0)
+        TrainerSettings(t_mult=0)
     with pytest.raises(ValueError, match="validation_fraction"):
-        TrainerConfig(validation_fraction=0.9)
+        TrainerSettings(validation_fraction=0.9)
     with pytest.raises(ValueError, match="loss"):
-        TrainerConfig(loss="hinge")
+        TrainerSettings(loss="hinge")
 
 
 def test_training_fits_and_keeps_the_best_read_point():
@@ -101,13 +101,13 @@ def test_same_seed_same_weights_and_callers_rng_untouched():
     X, y = _data()
     torch.manual_seed(123)
     np.random.seed(123)
-    first = train(_mlp, X, y, _config(random_state=7, batch_size=40, epochs=6))
+    first = train(_mlp, X, y, _config(batch_size=40, epochs=6), random_state=7)
     after_torch, after_np = torch.rand(3), np.random.rand(3)
     torch.manual_seed(123)
     np.random.seed(123)
     assert torch.equal(after_torch, torch.rand(3)) and np.array_equal(after_np, np.random.rand(3))
-    second = train(_mlp, X, y, _config(random_state=7, batch_size=40, epochs=6))
-    other = train(_mlp, X, y, _config(random_state=8, batch_size=40, epochs=6))
+    second = train(_mlp, X, y, _config(batch_size=40, epochs=6), random_state=7)
+    other = train(_mlp, X, y, _config(batch_size=40, epochs=6), random_state=8)
     assert all(torch.equal(first.state_dict[k], second.state_dict[k]) for k in first.state_dict)
     assert not all(torch.equal(first.state_dict[k], other.state_dict[k]) for k in first.state_dict)
 
@@ -184,6 +184,7 @@ def test_pruner_stops_training_at_the_first_cycle_end():
 
 def test_trainer_search_space_holds_the_stabilisers():
     space = trainer_search_space()
-    assert set(space) == {"lr_max", "eta_min_ratio", "t0", "t_mult", "clip_norm"}
-    space["lr_max"]["low"] = 1.0
-    assert trainer_search_space()["lr_max"]["low"] < 1.0
+    assert set(space) == {"trainer__lr_max", "trainer__eta_min_ratio", "trainer__t0", "trainer__t_mult",
+                          "trainer__clip_norm"}
+    space["trainer__lr_max"]["low"] = 1.0
+    assert trainer_search_space()["trainer__lr_max"]["low"] < 1.0

@@ -20,6 +20,7 @@ VERBS = {
     "run": ("thermodrift.core.cli.run", "Run experiments (Hydra overrides; -m for a grid)."),
     "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
+    "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
     "report": ("thermodrift.core.cli.report", "The published studies' tables (S1 Table 7, S2) from a sweep in MLflow."),
 }
@@ -29,9 +30,18 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``thermodrift`` console script."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "run" and ("-h" in argv[1:] or "--help" in argv[1:]):
+        from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
+        print(run_options.help_text())
+        return 0
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
-        from thermodrift.core.cli import run as app
-        return _guard(lambda: app.main(argv[1:]))
+        from thermodrift.core import tracking_faults
+
+        def run_app() -> int:
+            tracking_faults.precheck(argv[1:])  # a dead server is reported before the slow imports
+            from thermodrift.core.cli import run as app
+            return app.main(argv[1:])
+        return _guard(run_app)
     parser = argparse.ArgumentParser(prog="thermodrift", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
     for verb, (module_name, help_text) in VERBS.items():
@@ -54,11 +64,21 @@ def _guard(fn) -> int:
     try:
         return int(fn() or 0)
     except (InputError, PluginError) as exc:
-        print(f"thermodrift: error: {exc}", file=sys.stderr)
+        error_line(f"thermodrift: error: {exc}")
         return 2
     except KeyboardInterrupt:
         print("thermodrift: interrupted; completed trials are kept in the Optuna storage", file=sys.stderr)
         return 130
+
+
+def error_line(text: str) -> None:
+    """``text`` on stderr on a line of its own, also while a progress bar is still drawn there."""
+    if "tqdm" in sys.modules:
+        from tqdm import tqdm
+
+        tqdm.write(text, file=sys.stderr)
+    else:
+        print(text, file=sys.stderr)
 
 
 if __name__ == "__main__":

@@ -34,8 +34,11 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="parameter paths to calibrate, globs allowed (repeatable; default: the network's "
                              "capacities, conductances and heat amplitudes)")
     parser.add_argument("--hidden-nodes", type=int, default=2, help="hidden nodes of the auto network (default 2)")
-    parser.add_argument("--max-seconds", type=float, default=90.0,
-                        help="wall-clock limit of the search in s; the best point so far is kept (default 90)")
+    parser.add_argument("--max-evaluations", type=int, default=100,
+                        help="iteration cap of the search per start; it otherwise stops on its tolerances (default 100)")
+    parser.add_argument("--starts", type=int, default=3,
+                        help="starts of the search (the first at the start values, the rest jittered; default 3)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the jittered starts (default 0)")
     parser.add_argument("--level", type=float, default=0.95, help="confidence level of the intervals (default 0.95)")
     parser.add_argument("--tracking-uri", default=None, help="MLflow tracking URI to log the run to (default: none)")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
@@ -45,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     import yaml
     from tqdm import tqdm
 
-    from thermodrift.core.physics import calibrate as cal
+    from thermodrift.core.physics import calibration as cal
     from thermodrift.core.physics import mismatch
     from thermodrift.core.physics.spec import load_network, network_to_dict
     from thermodrift.core.recording import load_recording
@@ -54,40 +57,51 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--level must be in (0, 1), got {args.level}")
     if args.hidden_nodes < 0:
         raise InputError("--hidden-nodes must be ≥ 0")
-    steps = tqdm(total=4, desc="calibrate: loading", unit="step", disable=args.no_progress, leave=False)
-    recording = load_recording(args.table, args.manifest)
-    network = None if args.network == "auto" else load_network(args.network)
-    steps.update()
-    steps.set_description("calibrate: fitting")
-    result = cal.calibrate(recording, network, free=args.free, targets=args.targets,
-                           hidden_nodes=args.hidden_nodes, max_seconds=args.max_seconds, level=args.level,
-                           progress=not args.no_progress)
-    steps.update()
-    steps.set_description("calibrate: mismatch map")
-    mm = mismatch.mismatch_map(result)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "calibration.json").write_text(json.dumps(result.to_dict(), indent=1, ensure_ascii=False) + "\n",
-                                          encoding="utf-8")
-    (out / "calibrated_network.yaml").write_text(
-        yaml.safe_dump(network_to_dict(result.network), allow_unicode=True, sort_keys=False), encoding="utf-8")
-    (out / "mismatch.json").write_text(json.dumps(mm.to_dict(), indent=1, ensure_ascii=False) + "\n",
-                                       encoding="utf-8")
-    mismatch.plot_heatmap(mm, out / "mismatch_heatmap.png", speed=(result.time_s, result.speed_rpm))
-    mismatch.plot_before_after(result, out / "before_after.png", mm)
-    steps.update()
-    if args.tracking_uri:
-        steps.set_description("calibrate: logging")
-        mismatch.log_to_mlflow(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
-    steps.update()
-    steps.close()
+    if args.max_evaluations < 1 or args.starts < 1:
+        raise InputError("--max-evaluations and --starts must be ≥ 1")
+    # The bar is closed (cleared) on any exit, so an error prints on a line of its own.
+    with tqdm(total=4, desc="calibrate: loading", unit="step", disable=args.no_progress,
+              leave=False) as steps:
+        recording = load_recording(args.table, args.manifest)
+        network = None if args.network == "auto" else load_network(args.network)
+        steps.update()
+        steps.set_description("calibrate: fitting")
+        result = cal.calibrate(recording, network, free=args.free, targets=args.targets,
+                               hidden_nodes=args.hidden_nodes, max_evaluations=args.max_evaluations,
+                               starts=args.starts, seed=args.seed, level=args.level,
+                               progress=not args.no_progress)
+        steps.update()
+        steps.set_description("calibrate: mismatch map")
+        mm = mismatch.mismatch_map(result)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "calibration.json").write_text(json.dumps(result.to_dict(), indent=1, ensure_ascii=False) + "\n",
+                                              encoding="utf-8")
+        (out / "calibrated_network.yaml").write_text(
+            yaml.safe_dump(network_to_dict(result.network), allow_unicode=True, sort_keys=False), encoding="utf-8")
+        (out / "mismatch.json").write_text(json.dumps(mm.to_dict(), indent=1, ensure_ascii=False) + "\n",
+                                           encoding="utf-8")
+        mismatch.plot_heatmap(mm, out / "mismatch_heatmap.png", speed=(result.time_s, result.speed_rpm))
+        mismatch.plot_before_after(result, out / "before_after.png", mm)
+        steps.update()
+        if args.tracking_uri:
+            steps.set_description("calibrate: logging")
+            log_to_mlflow(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
+        steps.update()
     _print_summary(result, mm, out)
     return 0
 
 
 def _print_summary(result, mm, out: Path) -> None:
+    import sys
+
     print(f"network {result.network.name!r}: {len(result.estimates)} parameters, {result.evaluations} simulations "
-          f"in {result.seconds:.1f} s ({result.stopped})")
+          f"in {result.seconds:.1f} s, stopped on {result.stop.replace('_', ' ')} ({result.stopped}); "
+          f"fit grid {result.fit_samples} samples, step {result.grid_step_s:g} s")
+    if len(result.starts) > 1:
+        print(f"{len(result.starts)} starts: cost max/min {result.spread['cost_max_over_min']:.4g}")
+    for w in result.warnings:
+        print(f"WARNING: {w}", file=sys.stderr)
     print(f"objective {result.cost_initial:.4g} -> {result.cost:.4g}")
     print("RMSE before -> after:")
     for c in result.rmse:
@@ -100,3 +114,31 @@ def _print_summary(result, mm, out: Path) -> None:
     for name, row in mm.by_window().head(5).iterrows():
         print(f"  {row['share']:6.1%}  {name}  (mostly {row['top_channel']})")
     print(f"wrote {out}")
+
+
+def log_to_mlflow(result, mm, out_dir: str | Path, tracking_uri: str | None,
+                  run_name: str = "calibrate", experiment: str = "calibrate") -> str:
+    """Log a calibration (``CalibrationResult``), its mismatch map (``MismatchMap``: top windows as tags and
+    shares), RMSEs and objective, and every file in ``out_dir`` to an MLflow run; returns the run id."""
+    import mlflow
+    import numpy as np
+
+    from thermodrift.core import tracking
+
+    tracking.setup(tracking_uri, experiment)
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
+        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
+                           "confidence_level": result.level, "stopped": result.stopped[:250]})
+        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
+                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
+        for c in result.rmse:
+            metrics[tracking.metric_key("rmse", c)] = result.rmse[c]
+            metrics[tracking.metric_key("rmse_initial", c)] = result.rmse_initial[c]
+        top = mm.by_window().head(5)
+        for rank, (name, row) in enumerate(top.iterrows(), start=1):
+            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
+            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out_dir))
+        return run.info.run_id

@@ -10,9 +10,11 @@ Each invocation gets a unique id (``THERMODRIFT_SWEEP_ID``) used for its output 
 from __future__ import annotations
 
 import datetime
+import json
 import os
 import sys
 import uuid
+from pathlib import Path
 
 import hydra
 import mlflow
@@ -20,7 +22,8 @@ from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
-from thermodrift.core import configs, registry, tracking
+from thermodrift.core import configs, registry, resume, schema, tracking, tracking_faults, trial_faults
+from thermodrift.core.cli import error_line, run_options
 from thermodrift.core.errors import InputError, PluginError
 from thermodrift.core.study import Job, JobSpec
 
@@ -35,22 +38,49 @@ class Lifecycle(tracking.SweepRun):
     def on_run_start(self, config, **kwargs) -> None:
         _STATE["composed"] = True
 
+    def on_multirun_end(self, config, **kwargs) -> None:
+        try:
+            super().on_multirun_end(config, **kwargs)
+        except tracking_faults.failures() as exc:
+            jobs = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
+                    for p in Path(config.hydra.sweep.dir).glob("*/job.json")}
+            done = sorted((k for k, v in jobs.items() if v["completed"]), key=int)
+            print(f"thermodrift: error: the grid ended but the MLflow tracking server at {config.tracking.uri} "
+                  f"stopped answering ({' '.join(str(exc).split())[:160]}); jobs completed and logged: "
+                  f"{', '.join(done) or 'none'} of {len(jobs)}; every study is kept in {config.optuna.storage} "
+                  "(run the same grid again once the server is back)", file=sys.stderr)
+            raise SystemExit(2) from None
+
     def on_multirun_start(self, config, **kwargs) -> None:
         _STATE["composed"] = True
         if config.optuna.storage:  # create the schema once, before parallel jobs race to create it
             Job.storage(config.optuna.storage)
-        super().on_multirun_start(config, **kwargs)
+        try:
+            tracking_faults.check(config.tracking.uri)
+        except InputError as exc:
+            print(f"thermodrift: error: {exc}", file=sys.stderr)
+            raise SystemExit(2) from None
+        with schema.exclusive(config.tracking.uri):
+            super().on_multirun_start(config, **kwargs)
+        mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
 
 
 def spec_from_config(cfg: DictConfig) -> JobSpec:
-    """The :class:`JobSpec` of a composed config."""
+    """The :class:`JobSpec` of a composed config; InputError naming every value the command line must give."""
+    unset = OmegaConf.missing_keys(cfg)
+    missing = [k for k in tracking.flatten(OmegaConf.to_container(cfg)) if k in unset]  # in config order
+    if missing:
+        raise InputError(f"{', '.join(missing)} {'has' if len(missing) == 1 else 'have'} no value: add "
+                         f"{' '.join(f'{k}=<value>' for k in missing)} to the command")
     c = OmegaConf.to_container(cfg, resolve=True)
+    # The top-level ``search_space`` replaces the model's (Hydra merges a dict given to ``model.search_space``).
+    space = c["search_space"] if c.get("search_space") is not None else c["model"].get("search_space")
     return JobSpec(
         dataset=c["dataset"]["name"], dataset_params=c["dataset"].get("params") or {},
         selector=c["selector"]["name"], selector_params=c["selector"].get("params") or {},
         selector_search_space=c["selector"].get("search_space"),
         model=c["model"]["name"], model_params=c["model"].get("params") or {},
-        model_search_space=c["model"].get("search_space"),
+        model_search_space=space,
         optimizer=c["optimizer"]["name"], optimizer_params=c["optimizer"].get("params") or {},
         split=c["split"]["kind"], split_params=c["split"].get("params") or {},
         targets=c.get("targets"), input_roles=tuple(c["input_roles"]), baselines=tuple(c["baselines"]),
@@ -67,29 +97,106 @@ def _task(cfg: DictConfig) -> float | None:
         spec = spec_from_config(cfg)
     except (InputError, PluginError, KeyError) as exc:
         return _bad_input(exc, multirun)
-    tracking.setup(cfg.tracking.uri, cfg.tracking.experiment)
+    study_name = spec.study_name or spec.default_study_name()
+    trial_faults.log_to(HydraConfig.get().runtime.output_dir)
+    try:
+        tracking_faults.check(cfg.tracking.uri)
+        schema.retrying(lambda: tracking.setup(cfg.tracking.uri, cfg.tracking.experiment), cfg.tracking.uri)
+        value = _job(cfg, spec, multirun)
+    except InputError as exc:  # the server was down when this job started
+        _record_job(study_name, None)
+        return _bad_input(exc, multirun)
+    except tracking_faults.failures() as exc:
+        _drop_active_runs()
+        value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
+    _record_job(study_name, value)
+    return value
+
+
+def _record_job(study_name: str, value: float | None) -> None:
+    """``job.json`` in the job's output folder: whether it completed, so a grid can say what did."""
+    folder = Path(HydraConfig.get().runtime.output_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "job.json").write_text(json.dumps({"study": study_name, "completed": value is not None,
+                                                 "best_value": value}), encoding="utf-8")
+
+
+def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
     names = {"dataset": spec.dataset, "selector": spec.selector, "model": spec.model,
              "optimizer": spec.optimizer, "split": spec.split}
-    run_name = f"{spec.model} · {spec.optimizer} · {spec.selector} · {spec.dataset} · {spec.split}"
-    with tracking.start_job_run(run_name, tracking.job_tags(names, cfg.ablation, "pending")) as run:
+    run_name = tracking.run_name(spec)
+    study_name = spec.study_name or spec.default_study_name()
+    tags = {**tracking.job_tags(names, cfg.ablation, "pending"), "recording": run_name.split(" · ")[0],
+            resume.STUDY_TAG: study_name, resume.OWNER_ATTR: resume.owner()}
+    if getattr(registry.get("model", spec.model).factory, "uses_target_history", False):
+        tags["reference"] = "reads the measured target"  # not a compensation model: never a grid's best job
+    with tracking.start_job_run(run_name, tags) as run:
+        killed = resume.close_dead_runs(mlflow.MlflowClient(), run.info.experiment_id, study_name)
+        if killed:  # this job resumes the study of a killed job
+            mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
+        logger = tracking.TrialLogger(run.info.run_id)
+        trial_log = tracking_faults.BufferedCallback(logger)
         try:
-            result = Job(spec, callbacks=[tracking.TrialLogger(run.info.run_id)]).run()
+            result = Job(spec, callbacks=[trial_log], say=lambda line: print(line, flush=True)).run()
         except (InputError, PluginError) as exc:
             mlflow.set_tag("error", str(exc)[:5000])
             mlflow.end_run(status="FAILED")
             return _bad_input(exc, multirun)
+        if not trial_log.flush(result.study):
+            trial_log.inner(result.study, trial_log.pending[0])  # raises the server's error
+        for fold in result.folds:  # a resumed study's stored trials, so the run has every trial's curve
+            if fold.study is not None and fold.trials_before:
+                logger.replay(fold.study, fold.trials_before)
         mlflow.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
-    table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
-    print(f"\n{run_name}\nselected sensors: {', '.join(result.selected)}\n"
-          f"held-out ({'; '.join(f.name for f in result.folds)}), µm:\n{table.to_string(float_format='%.3f')}\n"
-          f"MLflow run {run.info.run_id} at {cfg.tracking.uri}")
+    print(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI), flush=True)
     return result.valid_rmse
+
+
+def job_report(result, run, uri: str) -> str:
+    """What a person reads after a job: targets, selection, held-out metrics beside the baselines, what
+    persistence is, where the figures are."""
+    table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
+    for target in result.targets:
+        table[f"rmse {target}"] = [result.summary_metrics(who, target)["rmse"] for who in result.folds[0].metrics]
+    params = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in result.best_params.items())
+    tuned = ("untuned (n_trials=0), on its defaults" if result.study is None
+             else f"tuned{' (last fold)' if len(result.folds) > 1 else ''}: {params or 'nothing to tune'}")
+    lines = [f"\n{tracking.run_name(result.spec)}  [{result.protocol} protocol]",
+             f"targets (µm): {', '.join(result.targets)}",
+             f"selected sensors{' (last fold)' if len(result.folds) > 1 else ''}: {', '.join(result.selected)}",
+             f"model {result.spec.model} {tuned}",
+             f"held-out ({'; '.join(f.name for f in result.folds)}), µm, mean over "
+             f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
+             table.to_string(float_format="%.3f")]
+    same = result.same_as()
+    if same:
+        lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 µm)")
+    names = dict.fromkeys(result.spec.model if who == "model" else who for who in result.folds[0].metrics)
+    for name in (n for n in names if getattr(registry.get("model", n).factory, "uses_target_history", False)):
+        lines.append(f"{name} reads the measured target of the previous sample: a reference, not a compensation "
+                     "model")
+    lines.append(f"figures: {run.info.artifact_uri}/{tracking.FIGURES}/")
+    lines.append(f"MLflow run {run.info.run_id} at {uri}")
+    return "\n".join(lines)
+
+
+def _drop_active_runs() -> None:
+    """Forget the runs this process has open after the server went away (ending them would fail too); the
+    next job of the same study closes them as KILLED."""
+    while mlflow.active_run() is not None:
+        try:
+            mlflow.end_run(status="FAILED")
+        except tracking_faults.failures():
+            from mlflow.tracking import fluent
+
+            stack = fluent._active_run_stack.get()  # mlflow has no public way to drop a run it cannot end
+            stack.pop()
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
     """One line on stderr; a single run exits 2, a grid job is recorded as failed and the grid goes on."""
-    print(f"thermodrift: error: {exc}", file=sys.stderr)
+    error_line(f"thermodrift: error: {exc}")
     if not multirun:
         raise SystemExit(2)
     return None
@@ -122,17 +229,18 @@ def main(overrides: list[str]) -> int:
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
-    # Hydra's plugin scan misses our sweeper under a lenient editable install; registering it is idempotent.
-    from hydra_plugins.thermodrift_sweeper import register
-
-    register()
     reg = registry.default()
+    flags, rest = _split_flags(overrides)
+    run_options.check_overrides(rest, reg)  # a typo gets one line with the closest right name, before Hydra
+    for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
+        register()
+    for plugin, error in reg.failures.items():  # `thermodrift plugins` lists them too
+        print(f"thermodrift: warning: plugin {plugin} failed to load and is left out: {error}", file=sys.stderr)
     configs.store(reg)
     extra = []
     if reg.searchpaths and not any(o.startswith("hydra.searchpath=") for o in overrides):
         extra = [f"hydra.searchpath=[{','.join(reg.searchpaths)}]"]
     argv = sys.argv
-    flags, rest = _split_flags(overrides)
     sys.argv = ["thermodrift run", *flags, *rest, *extra]
     try:
         _task()

@@ -47,42 +47,44 @@ def run(args: argparse.Namespace) -> int:
     from thermodrift.core.physics.spec import apply_mechanism_list, load_network
     from thermodrift.core.physics.synthetic import synthesize
 
-    steps = tqdm(total=4, desc="simulate", unit="step", disable=args.no_progress, leave=False)
-    extra = [_parse_mechanism(text) for text in args.mechanism]
-    if args.network:
-        network = load_network(args.network)
-        name = network.name
-        scen = scenarios.build(args.scenario or "iso230_3_speed_spectrum",
-                               **({"dt_s": args.dt} if args.dt else {}))
-    else:
-        name = args.machine or "demo_spindle"
-        machine = registry.get("dataset", name).factory
-        if not hasattr(machine, "generate"):
-            raise InputError(f"dataset {name!r} is not a simulated machine",
-                             hint="use one of demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3")
-        network = load_network(machine.name)
-        scen_name = args.scenario or machine.scenario
-        dt = args.dt or (machine.dt_s if scen_name == machine.scenario else None)
-        scen = scenarios.build(scen_name, **({"dt_s": dt} if dt else {}))
-    if args.hours is not None:
-        if args.hours <= 0:
-            raise InputError("--hours must be positive")
-        scen = scen.head(args.hours)
-    steps.update()
-    network = apply_mechanism_list(network, extra)
-    steps.set_description("simulate: integrating")
-    synthetic = synthesize(network, scen, args.seed, source=f"{name}[seed={args.seed},{scen.name}]")
-    synthetic.truth["machine"] = name
-    steps.update(2)
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    stem = f"{name}_seed{args.seed}"
-    table, manifest, truth = out / f"{stem}.{args.format}", out / f"{stem}.manifest.yaml", out / f"{stem}.truth.json"
-    steps.set_description("simulate: writing")
-    synthetic.recording.write(table, manifest)
-    truth.write_text(json.dumps(synthetic.truth, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
-    steps.update()
-    steps.close()
+    # The bar is closed (cleared) on any exit, so an error prints on a line of its own.
+    with tqdm(total=4, desc="simulate", unit="step", disable=args.no_progress, leave=False) as steps:
+        extra = [_parse_mechanism(text) for text in args.mechanism]
+        if args.network:
+            network = load_network(args.network)
+            name = network.name
+            scen = scenarios.build(args.scenario or "iso230_3_speed_spectrum",
+                                   **({"dt_s": args.dt} if args.dt else {}))
+        else:
+            name = args.machine or "demo_spindle"
+            machine = registry.get("dataset", name).factory
+            if not hasattr(machine, "generate"):
+                raise InputError(f"dataset {name!r} is not a simulated machine",
+                                 hint="use one of demo_spindle, turning_centre_s1, vmc_spindle_s2, "
+                                      "motorized_spindle_s3")
+            network = load_network(machine.name)
+            scen_name = args.scenario or machine.scenario
+            dt = args.dt or (machine.dt_s if scen_name == machine.scenario else None)
+            scen = scenarios.build(scen_name, **({"dt_s": dt} if dt else {}))
+        if args.hours is not None:
+            if args.hours <= 0:
+                raise InputError("--hours must be positive")
+            scen = scen.head(args.hours)
+        steps.update()
+        network = apply_mechanism_list(network, extra)
+        steps.set_description("simulate: integrating")
+        synthetic = synthesize(network, scen, args.seed, source=f"{name}[seed={args.seed},{scen.name}]")
+        synthetic.truth["machine"] = name
+        steps.update(2)
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        stem = f"{name}_seed{args.seed}"
+        table, manifest = out / f"{stem}.{args.format}", out / f"{stem}.manifest.yaml"
+        truth = out / f"{stem}.truth.json"
+        steps.set_description("simulate: writing")
+        synthetic.recording.write(table, manifest)
+        truth.write_text(json.dumps(synthetic.truth, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        steps.update()
     rec = synthetic.recording
     print(f"{rec.duration_s / 3600:.1f} h, {len(rec)} samples of {rec.sampling_interval_s:g} s, "
           f"{len(rec.temperatures.columns)} temperatures, {len(rec.displacements.columns)} displacements, "

@@ -170,7 +170,28 @@ class _Ledger:
 
 
 class PopulationSampler(BaseSampler, abc.ABC):
-    """Base of the population samplers; see the module docstring for the contract.
+    """Base of population metaheuristics as Optuna samplers: a subclass writes only the algorithm's move.
+
+    A subclass (one file; ``docs/templates/optimizer_plugin.py`` is a complete example):
+
+    * sets ``prefix`` (a short name; its trial attributes are stored as ``<prefix>:slot`` and the like) and,
+      for an algorithm that moves the whole population once per generation, ``generational = True``;
+    * implements ``_propose(ctx: Context) -> Move``: the position in the unit cube [0, 1]^D of the trial in
+      slot ``ctx.slot``, drawing every random number from ``ctx.rng``. :class:`Context` gives ``dim`` (D),
+      ``progress`` (t/T in [0, 1]), ``latest`` and ``own_best`` (this slot's latest and best :class:`Member`,
+      asynchronous algorithms), ``ranked`` (every finished member with finite fitness, best first) and
+      ``population`` (generational algorithms, from generation 1: the :class:`Population` after the last
+      closed generation). :class:`Move` holds ``x``, a ``phase`` label and an optional velocity ``v``;
+    * may override ``_replaces(new, old_fitness) -> bool`` (generational: whether the best new member of a
+      slot replaces it; default: always, ``new.fitness < old_fitness`` is greedy selection);
+    * may add constructor settings after the base's keyword-only ``population_size``, ``n_trials`` and
+      ``seed`` (store each unchanged and pass the three on), and a ``get_test_params()`` classmethod.
+
+    The base encodes every distribution (float, log, step, int, categorical) into the unit cube, keeps the
+    population in the study's storage (threads, processes and resumed runs share it), treats FAIL and PRUNED
+    trials as worst fitness, adopts enqueued trials and the study's first trial into the population, draws
+    parameters outside the common search space as Optuna's RandomSampler does, and makes one seed give one
+    trial sequence. The module docstring has the details.
 
     Args:
         population_size: N, the number of slots (particles, wolves, fireflies, magpies).
@@ -219,7 +240,8 @@ class PopulationSampler(BaseSampler, abc.ABC):
             attrs["x"] = x.tolist()  # last: another process that sees x sees the whole record
             for key, value in attrs.items():
                 study._storage.set_trial_system_attr(trial._trial_id, f"{self.prefix}:{key}", value)
-        return transform.untransform(x)
+        # Optuna's decoder returns numpy scalars for values clipped to a bound; trial parameters are plain Python.
+        return {name: v.item() if isinstance(v, np.generic) else v for name, v in transform.untransform(x).items()}
 
     def sample_independent(self, study: optuna.Study, trial: FrozenTrial, param_name: str,
                            param_distribution: BaseDistribution) -> Any:

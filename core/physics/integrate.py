@@ -135,27 +135,9 @@ class CompiledNetwork:
     def _propagate(self, key: tuple, x0: np.ndarray, W: np.ndarray) -> np.ndarray:
         """States after each step of x_{k+1} = Φ x_k + W[k] at level ``key`` (see :meth:`step`): (len(W), N)."""
         Phi = self._levels[key][0]
-        K, N = W.shape
-        if K < _SCHUR_MIN_STEPS:
-            out, x = np.empty((K, N)), x0
-            for k in range(K):
-                x = Phi @ x + W[k]
-                out[k] = x
-            return out
-        from scipy.signal import lfilter  # imported here: ~1 s, not to be paid when plugins load
-
-        if key not in self._schur:
+        if len(W) >= _SCHUR_MIN_STEPS and key not in self._schur:
             self._schur[key] = schur(Phi, output="complex", check_finite=False)
-        R, Q = self._schur[key]
-        z0 = Q.conj().T @ x0
-        V = W @ Q.conj()                      # inputs in the Schur basis, one row per step
-        Z = np.empty((K + 1, N), dtype=complex)  # Z[k] = state before step k; Z[K] = final
-        Z[0] = z0
-        for i in range(N - 1, -1, -1):
-            v = V[:, i] + Z[:-1, i + 1:] @ R[i, i + 1:] if i < N - 1 else V[:, i]
-            lam = R[i, i]
-            Z[1:, i], _ = lfilter([1.0], [1.0, -lam], v, zi=np.array([lam * z0[i]]))
-        return (Z[1:] @ Q.T).real
+        return propagate(Phi, x0, W, self._schur.get(key))
 
     def trajectory(self, scenario: Scenario, *, initial: str | float | Mapping[str, float] | np.ndarray = "steady",
                    method: str = "exact") -> np.ndarray:
@@ -248,6 +230,36 @@ class SimulationResult:
             channels["condition"] = Channel("condition", "condition", None, {})
         data = pd.DataFrame(columns, index=pd.Index(f.index.to_numpy(), name="time_s"))
         return Recording(data, channels, source=source or f"simulated:{self.network.name}")
+
+
+def propagate(Phi: np.ndarray, x0: np.ndarray, W: np.ndarray,
+              schur_form: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """States after each step of x_{k+1} = Φ x_k + W[k]: (len(W), N). The project's one linear propagator
+    (simulation, calibration and the state observer of the physics models use it).
+
+    Short runs are stepped directly; long ones in the Schur basis Φ = Q R Qᴴ (``schur_form`` = (R, Q), computed
+    if not given): the modes are solved from the last to the first, each a first-order recursion run by
+    ``scipy.signal.lfilter`` in C with the modes already solved as its input.
+    """
+    K, N = W.shape
+    if K < _SCHUR_MIN_STEPS:
+        out, x = np.empty((K, N)), x0
+        for k in range(K):
+            x = Phi @ x + W[k]
+            out[k] = x
+        return out
+    from scipy.signal import lfilter  # imported here: ~1 s, not to be paid when plugins load
+
+    R, Q = schur_form if schur_form is not None else schur(Phi, output="complex", check_finite=False)
+    z0 = Q.conj().T @ x0
+    V = W @ Q.conj()                      # inputs in the Schur basis, one row per step
+    Z = np.empty((K + 1, N), dtype=complex)  # Z[k] = state before step k; Z[K] = final
+    Z[0] = z0
+    for i in range(N - 1, -1, -1):
+        v = V[:, i] + Z[:-1, i + 1:] @ R[i, i + 1:] if i < N - 1 else V[:, i]
+        lam = R[i, i]
+        Z[1:, i], _ = lfilter([1.0], [1.0, -lam], v, zi=np.array([lam * z0[i]]))
+    return (Z[1:] @ Q.T).real
 
 
 def simulate(network: Network | CompiledNetwork, scenario: Scenario, dt_s: float | None = None, *,

@@ -124,7 +124,8 @@ class Mechanism:
     def describe(cls) -> str:
         """One line per parameter: name, default, bounds and unit."""
         rows = [f"{p.name} = {p.default:g} [{p.low:g}, {p.high:g}] {p.unit}: {p.doc}" for p in cls.parameters]
-        return "\n".join([f"{cls.id}: {cls.signature}", *rows])
+        drivers = f" (drivers: {', '.join(cls.drivers)})" if cls.drivers else ""
+        return "\n".join([f"{cls.id}: {cls.signature}{drivers}", *rows])
 
     def apply(self, network: Network, **params: float) -> Network:
         """A copy of ``network`` with this mechanism added at ``params`` (defaults for the ones not given)."""

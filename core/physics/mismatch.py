@@ -3,14 +3,15 @@
 The recording is cut into windows from its speed schedule (:func:`schedule_windows`): each speed change opens
 a short ``step`` window (the first ``step_s`` seconds, where instantaneous growth, sensor lag and fast modes
 show), followed by the rest of the block as ``running`` or ``stopped``. For every channel and window the map
-holds the share of the calibration objective (the sum of squared residuals divided by each channel's noise σ,
-see :mod:`thermodrift.core.physics.calibrate`) that falls there, the RMS and mean residual in the channel's
+holds the share of the calibration objective (the sum of squared residuals divided by each channel's weight σ,
+see :mod:`thermodrift.core.physics.calibration.objective`) that falls there, the RMS and mean residual in the channel's
 unit (K or µm), and the share relative to the window's length (``excess``: 1 is what a uniformly spread misfit
 gives; ≫ 1 marks a localised mismatch). Cells, windows and channels are ranked by their share; the missing-
 physics finder starts from the top of that list.
 
 Outputs: :meth:`MismatchMap.to_dict` (``mismatch.json``), :func:`plot_heatmap` (time × channel PNG),
-:func:`plot_before_after` (measured, initial guess, calibrated) and :func:`log_to_mlflow`.
+:func:`plot_before_after` (measured, initial guess, calibrated). Logging them is the verb's
+(``thermodrift calibrate``, :mod:`thermodrift.core.cli.calibrate`); this module only computes and draws.
 """
 
 from __future__ import annotations
@@ -22,7 +23,8 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from thermodrift.core.physics.calibrate import CalibrationResult, run_segments
+from thermodrift.core.physics.calibration import CalibrationResult
+from thermodrift.core.recording import speed_segments
 
 STEP_WINDOW_S = 900.0
 
@@ -45,7 +47,7 @@ def schedule_windows(time_s: np.ndarray, speed_rpm: np.ndarray, step_s: float = 
     end_of = lambda i: float(t[i]) if i < len(t) else float(t[-1] + dt)  # noqa: E731 (half-open ends)
     out: list[Window] = []
     prev = None
-    for a, b, level in run_segments(speed_rpm):
+    for a, b, level in speed_segments(t, speed_rpm):
         label = f"{level:g} rpm" if level > 0 else "stop"
         kind = "running" if level > 0 else "stopped"
         start_h = t[a] / 3600.0
@@ -95,7 +97,7 @@ class MismatchMap:
 
         cells = self.ranked_cells(top)
         return {
-            "objective": "sum over channels of (residual / noise sigma)^2; share = fraction of it in a cell",
+            "objective": "sum over channels of (residual / weight sigma)^2; share = fraction of it in a cell",
             "total_weighted_rss": self.total_weighted_rss,
             "windows": [{"name": w.name, "kind": w.kind, "start_h": w.start_s / 3600.0, "end_h": w.end_s / 3600.0,
                          "speed_rpm": w.speed_rpm} for w in self.windows],
@@ -119,21 +121,23 @@ def mismatch_map(result: CalibrationResult, windows: Sequence[Window] | None = N
     t = result.time_s
     windows = list(windows) if windows is not None else schedule_windows(t, result.speed_rpm, step_s)
     resid = result.residuals
-    z2 = (resid / pd.Series(result.sigma)) ** 2
+    z2 = (resid / pd.Series(result.weight)) ** 2
     total = float(z2.to_numpy().sum())
     span = float(windows[-1].end_s - windows[0].start_s) if windows else 1.0
     rows = []
-    for w in windows:
-        mask = (t >= w.start_s) & (t < w.end_s)
+    R, Z2 = resid.to_numpy(), z2[resid.columns].to_numpy()
+    # windows are time ranges of a sorted index: slices, so the map costs O(samples + windows × channels)
+    bounds = np.searchsorted(t, [[w.start_s, w.end_s] for w in windows]) if windows else np.empty((0, 2), int)
+    for w, (a, b) in zip(windows, bounds):
         frac = (w.end_s - w.start_s) / span
-        for ch in resid.columns:
-            r = resid[ch].to_numpy()[mask]
-            share = float(z2[ch].to_numpy()[mask].sum()) / total if total > 0 else 0.0
+        for j, ch in enumerate(resid.columns):
+            r = R[a:b, j]
+            share = float(Z2[a:b, j].sum()) / total if total > 0 else 0.0
             rows.append({"channel": ch, "window": w.name, "kind": w.kind, "kind_channel": result.channel_kind[ch],
                          "start_h": w.start_s / 3600.0, "end_h": w.end_s / 3600.0, "time_fraction": frac,
                          "share": share, "excess": share * len(resid.columns) / frac if frac > 0 else np.nan,
                          "rms": float(np.sqrt(np.mean(r ** 2))) if len(r) else np.nan,
-                         "mean": float(np.mean(r)) if len(r) else np.nan, "samples": int(mask.sum()),
+                         "mean": float(np.mean(r)) if len(r) else np.nan, "samples": int(b - a),
                          "unit": "K" if result.channel_kind[ch] == "temperature" else "um"})
     return MismatchMap(windows, pd.DataFrame(rows), total)
 
@@ -202,28 +206,3 @@ def plot_before_after(result: CalibrationResult, path: str | Path, mm: MismatchM
     plt.close(fig)
     return Path(path)
 
-
-def log_to_mlflow(result: CalibrationResult, mm: MismatchMap, out_dir: str | Path, tracking_uri: str | None,
-                  run_name: str = "calibrate", experiment: str = "calibrate") -> str:
-    """Log RMSEs, the objective and every file in ``out_dir`` to an MLflow run; returns the run id."""
-    import mlflow
-
-    from thermodrift.core import tracking
-
-    tracking.setup(tracking_uri, experiment)
-    with mlflow.start_run(run_name=run_name) as run:
-        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
-        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
-                           "confidence_level": result.level, "stopped": result.stopped[:250]})
-        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
-                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
-        for c in result.rmse:
-            metrics[tracking.metric_key("rmse", c)] = result.rmse[c]
-            metrics[tracking.metric_key("rmse_initial", c)] = result.rmse_initial[c]
-        top = mm.by_window().head(5)
-        for rank, (name, row) in enumerate(top.iterrows(), start=1):
-            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
-            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
-        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
-        mlflow.log_artifacts(str(out_dir))
-        return run.info.run_id

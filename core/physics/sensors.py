@@ -80,6 +80,15 @@ def first_order_lag(x: np.ndarray, time_s: np.ndarray, tau_s: float) -> np.ndarr
     return y
 
 
+def temperature_reading(sensor: TemperatureSensor, values: Mapping[str, np.ndarray], time_s: np.ndarray,
+                        offset: bool = True) -> np.ndarray:
+    """Noise-free reading (°C) of ``sensor``: its weighted node or boundary temperatures ``values`` (by name),
+    first-order-lagged, plus its offset (``offset=False``: without it, as the calibration projects it)."""
+    true = sum(w * np.asarray(values[n], dtype=float) for n, w in sensor.weights.items())
+    lagged = first_order_lag(true, time_s, sensor.lag_s) if sensor.lag_s > 0 else np.asarray(true, dtype=float)
+    return lagged + sensor.offset_K if offset else lagged
+
+
 def quantize(x: np.ndarray, step: float) -> np.ndarray:
     """Round to multiples of ``step`` (no change for step 0)."""
     return np.round(x / step) * step if step > 0 else x
@@ -98,8 +107,7 @@ def measure(sensors: tuple[Sensor, ...], sources: pd.DataFrame, displacements: p
     columns: dict[str, np.ndarray] = {}
     for s in sensors:
         if isinstance(s, TemperatureSensor):
-            true = sum(w * sources[n].to_numpy() for n, w in s.weights.items())
-            value = first_order_lag(true, time_s, s.lag_s) + s.offset_K
+            value = temperature_reading(s, {n: sources[n].to_numpy() for n in s.weights}, time_s)
             noise = s.noise_K
             resolution = s.resolution_K
         else:

@@ -9,10 +9,10 @@ import optuna
 
 
 @contextlib.contextmanager
-def quiet() -> Iterator[None]:
-    """Optuna's log at WARNING inside the block; the caller's verbosity is restored after it."""
+def quiet(level: int = optuna.logging.WARNING) -> Iterator[None]:
+    """Optuna's log at ``level`` inside the block; the caller's verbosity is restored after it."""
     before = optuna.logging.get_verbosity()
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    optuna.logging.set_verbosity(level)
     try:
         yield
     finally:

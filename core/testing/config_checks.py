@@ -62,5 +62,5 @@ def check_hydra_config(kind: str, name: str, registry: Registry) -> None:
         distributions(space)
     except InputError as exc:
         raise AssertionError(f"{group}/{name}.yaml: {exc}") from None
-    unknown = sorted(set(space) - set(built.get_params(deep=False)))
+    unknown = sorted(set(space) - set(built.get_params(deep=True)))
     assert not unknown, f"{group}/{name}.yaml: search_space names {unknown}, which are not constructor parameters"

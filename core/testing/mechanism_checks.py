@@ -55,7 +55,7 @@ def _scenario():
 
 
 def _outputs(net) -> np.ndarray:
-    from thermodrift.core.physics.calibrate import predict
+    from thermodrift.core.physics.calibration import predict
 
     return predict(net, _scenario())[0].to_numpy()
 

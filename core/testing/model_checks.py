@@ -11,6 +11,7 @@ import optuna
 import pandas as pd
 
 from thermodrift.core.errors import InputError
+from thermodrift.core.registry import build
 from thermodrift.core.search_space import distributions, suggest
 from thermodrift.testing import _optuna
 from thermodrift.core.study import model_inputs
@@ -86,7 +87,7 @@ def check_search_space(factory: Factory, params: dict) -> None:
     model = factory(**params)
     space = type(model).search_space()
     assert isinstance(space, dict), f"search_space() must return a dict, got {type(space).__name__}"
-    unknown = sorted(set(space) - set(model.get_params(deep=False)))
+    unknown = sorted(set(space) - set(model.get_params(deep=True)))
     assert not unknown, f"search_space() names {unknown}, which are not constructor parameters"
     try:
         distributions(space)
@@ -101,11 +102,36 @@ def check_search_space(factory: Factory, params: dict) -> None:
             trial = study.ask()
             point = suggest(trial, space)
             try:
-                pred = _fit_predict(seeded(factory(**{**params, **point})), X, y)
+                pred = _fit_predict(seeded(build(factory, {**params, **point})), X, y)
             except Exception as exc:
                 raise AssertionError(f"search-space point {point} failed: {type(exc).__name__}: {exc}") from exc
             assert np.isfinite(pred).all(), f"search-space point {point} gives non-finite predictions"
             study.tell(trial, float(np.sqrt(((pred - y.to_numpy()) ** 2).mean())))
+
+
+STREAM_TOLERANCE_UM = 1e-4
+STREAM_ROWS = 25
+
+
+def check_streaming_equals_batch(factory: Factory, params: dict) -> None:
+    """``streamer(history).update(row)`` over consecutive rows equals ``predict(rows, history)`` within
+    1e-4 µm, with history and without (the contract of ``ThermalModel``, as a controller calls a model)."""
+    X, y = tiny_frames()
+    model = seeded(factory(**params))
+    Xm = _inputs(model, X, y)
+    model.fit(Xm, y)
+    cut = len(Xm) // 2
+    for history in (Xm.iloc[:cut], None):
+        rows = Xm.iloc[cut:cut + STREAM_ROWS] if history is not None else Xm.iloc[:STREAM_ROWS]
+        batch = np.asarray(model.predict(rows, history=history), dtype=float)
+        streamer = model.streamer(history)
+        streamed = np.array([np.asarray(streamer.update(rows.iloc[i]), dtype=float).reshape(-1)
+                             for i in range(len(rows))])
+        assert streamed.shape == batch.shape, f"streamed shape {streamed.shape} != batch shape {batch.shape}"
+        worst = float(np.abs(streamed - batch).max())
+        assert worst <= STREAM_TOLERANCE_UM, (
+            f"streaming one row at a time differs from predict(rows, history) by up to {worst:.3g} µm "
+            f"({'with' if history is not None else 'without'} history); carry the state the batch uses")
 
 
 HISTORY_TOLERANCE_UM = 1e-4  # float32 models included (architecture: "Models as a controller uses them")
@@ -136,4 +162,5 @@ def check_history_consistent(factory: Factory, params: dict) -> None:
 
 
 MODEL_CHECKS = (*SHARED_CHECKS, check_fit_predict_shape, check_predictions_in_um, check_model_deterministic,
-                check_model_pickle, check_search_space, check_history_consistent)
+                check_model_pickle, check_search_space, check_streaming_equals_batch,
+                check_history_consistent)

@@ -2,13 +2,16 @@
 
 The checks run short studies on a cheap objective over a mixed space (linear, log and stepped floats, plain and
 stepped ints, a categorical). A factory that accepts ``n_trials`` (samplers whose schedules need the budget)
-is given the study's budget.
+is given the study's budget. Beyond the basic contract they follow ``optuna.testing``'s sampler suite where a
+study meets it: failed and pruned trials, enqueued trials and fixed parameters, a search space whose ranges
+and parameters change between trials, and a study resumed by a new sampler object.
 """
 
 from __future__ import annotations
 
 import inspect
 import math
+import warnings
 from typing import Any
 
 import optuna
@@ -123,4 +126,112 @@ def check_seed_reproducible(factory: Factory, params: dict) -> None:
         raise AssertionError(f"same seed, different suggestions from trial {i}: {first[i]} vs {second[i]}")
 
 
-OPTIMIZER_CHECKS = (check_returns_sampler, check_respects_budget, check_respects_search_space, check_seed_reproducible)
+SHORT = 8  # trials of the studies below: past a small population's first generation, seconds for GP
+
+
+def _study(factory: Factory, params: dict, **kwargs: Any) -> optuna.Study:
+    return optuna.create_study(sampler=_sampler(factory, params), **kwargs)
+
+
+def _assert_in_space(trials: list[optuna.trial.FrozenTrial], space: dict[str, dict[str, Any]] = SPACE) -> None:
+    for trial in trials:
+        for name, value in trial.params.items():
+            problem = _outside(space[name], value)
+            assert problem is None, f"trial {trial.number}: {name}={value!r} {problem}"
+
+
+def check_survives_failed_and_pruned_trials(factory: Factory, params: dict) -> None:
+    """A study goes on after trials that fail (raise) or are pruned, and the next suggestions stay valid."""
+    def objective(trial: optuna.Trial) -> float:
+        value = _objective(trial)
+        if trial.number % 3 == 1:
+            raise ValueError("a failing job")
+        if trial.number % 3 == 2:
+            raise optuna.TrialPruned()
+        return value
+
+    with _optuna.quiet(optuna.logging.ERROR):  # not one warning with a traceback per planned failure
+        study = _study(factory, params)
+        try:
+            study.optimize(objective, n_trials=SHORT, catch=(ValueError,))
+        except Exception as exc:
+            raise AssertionError(f"the study broke after failed and pruned trials: {type(exc).__name__}: {exc}") from exc
+    states = [t.state.name for t in study.trials]
+    assert len(states) == SHORT, f"optimize(n_trials={SHORT}) with failing trials ran {len(states)}"
+    assert states.count("COMPLETE") == len(range(0, SHORT, 3)), f"trial states {states}"
+    _assert_in_space(study.trials)
+
+
+def check_enqueued_trials_get_their_parameters(factory: Factory, params: dict) -> None:
+    """Trials enqueued before and during a study run with exactly the enqueued values; the rest stay valid."""
+    first = {"x": 0.5, "lr": 1e-3, "dropout": 0.2, "units": 7, "window": 4, "act": "gelu"}
+    later = {"x": -1.5, "units": 60}  # partial: the sampler fills in the other parameters
+    with _optuna.quiet():
+        study = _study(factory, params)
+        study.enqueue_trial(first)
+        study.optimize(_objective, n_trials=SHORT // 2)
+        study.enqueue_trial(later)
+        study.optimize(_objective, n_trials=SHORT - SHORT // 2)
+    trials = study.trials
+    assert trials[0].params == first, f"enqueued {first}, ran {trials[0].params}"
+    queued = trials[SHORT // 2].params
+    assert {k: queued[k] for k in later} == later, f"enqueued {later}, ran {queued}"
+    assert all(t.state.name == "COMPLETE" for t in trials), [t.state.name for t in trials]
+    _assert_in_space(trials)
+
+
+def check_fixed_parameters_stay_fixed(factory: Factory, params: dict) -> None:
+    """Wrapped in Optuna's ``PartialFixedSampler``, the fixed parameters keep their values in every trial."""
+    fixed = {"x": 1.0, "act": "tanh"}
+    with _optuna.quiet(), warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)  # Optuna marks it experimental
+        study = optuna.create_study(sampler=optuna.samplers.PartialFixedSampler(fixed, _sampler(factory, params)))
+        study.optimize(_objective, n_trials=SHORT)
+    for trial in study.trials:
+        assert {k: trial.params[k] for k in fixed} == fixed, f"trial {trial.number}: {trial.params}"
+    _assert_in_space(study.trials)
+
+
+def check_dynamic_search_space(factory: Factory, params: dict) -> None:
+    """Ranges that change between trials and parameters that exist only for some choices get valid values."""
+    def space_of(number: int, kind: str | None = None) -> dict[str, dict[str, Any]]:
+        wide = number < SHORT // 2
+        space = {"kind": {"type": "categorical", "choices": ["a", "b"]},
+                 "x": {"type": "float", "low": -2.0 if wide else 0.0, "high": 3.0 if wide else 1.0},
+                 "units": {"type": "int", "low": 1, "high": 64 if wide else 8}}
+        if kind == "b":
+            space["depth"] = {"type": "int", "low": 1, "high": 4}
+        return space
+
+    def objective(trial: optuna.Trial) -> float:
+        kind = trial.suggest_categorical("kind", ["a", "b"])
+        p = suggest(trial, {k: v for k, v in space_of(trial.number, kind).items() if k != "kind"})
+        return (p["x"] - 0.5) ** 2 + p["units"] / 64 + p.get("depth", 0)
+
+    with _optuna.quiet():
+        study = _study(factory, params)
+        study.optimize(objective, n_trials=SHORT)
+    assert all(t.state.name == "COMPLETE" for t in study.trials), [t.state.name for t in study.trials]
+    for trial in study.trials:
+        _assert_in_space([trial], space_of(trial.number, trial.params["kind"]))
+        assert ("depth" in trial.params) == (trial.params["kind"] == "b"), f"trial {trial.number}: {trial.params}"
+
+
+def check_resumes_with_a_new_sampler(factory: Factory, params: dict) -> None:
+    """A study stopped and loaded again with a new sampler object (as after a killed run) completes its budget
+    with valid suggestions."""
+    storage = optuna.storages.InMemoryStorage()
+    with _optuna.quiet():
+        first = _study(factory, params, storage=storage, study_name="resumed")
+        first.optimize(_objective, n_trials=SHORT // 2)
+        again = _study(factory, params, storage=storage, study_name="resumed", load_if_exists=True)
+        again.optimize(_objective, n_trials=SHORT - SHORT // 2)
+    trials = again.trials
+    assert len(trials) == SHORT and all(t.state.name == "COMPLETE" for t in trials), (
+        f"resumed study holds {[t.state.name for t in trials]}")
+    _assert_in_space(trials)
+
+
+OPTIMIZER_CHECKS = (check_returns_sampler, check_respects_budget, check_respects_search_space, check_seed_reproducible,
+                    check_survives_failed_and_pruned_trials, check_enqueued_trials_get_their_parameters,
+                    check_fixed_parameters_stay_fixed, check_dynamic_search_space, check_resumes_with_a_new_sampler)

@@ -1,72 +1,76 @@
-"""Template: a thermodrift model plugin (temperatures in °C -> displacement in µm) in one file.
+"""Template: a thermodrift torch model plugin (temperatures in °C -> displacement in µm) in one file.
 
 How to use:
-1. Copy this file into your package, e.g. ``my_thermal_models/elm.py``, and rename class and registry name.
-2. Fill in the ``todo`` parts. Keep the rules: ``__init__`` only stores its arguments; ``_fit`` learns and
-   stores fitted attributes ending in ``_``; ``_predict`` returns (n_samples, n_channels) in µm; every random
-   thing takes ``random_state``.
+1. Copy this file into your package, e.g. ``my_thermal_models/residual_mlp.py``, and rename class and
+   registry name.
+2. Fill in the ``todo`` parts. A torch model states only its own hyper-parameters, then ``trainer=None`` and
+   ``random_state=0``, and stores each unchanged; ``_build(n_inputs, n_outputs)`` returns the network. The
+   shared trainer (``thermodrift.core.training``: Z-scoring, AdamW, SGDR warm restarts, gradient clipping,
+   early stopping, divergence guard, Optuna pruning) trains it. ``trainer`` overrides its settings
+   (``TrainerSettings``), e.g. ``trainer={"epochs": 100}``; they are nested parameters ``trainer__epochs``,
+   ``trainer__lr_max``, ... for ``get_params``/``set_params``, search spaces and
+   ``thermodrift run model=residual_mlp model.params.trainer.epochs=100``. To change the defaults for this
+   model, set ``trainer_defaults = TrainerSettings(epochs=100)`` on the class. Sequence models override
+   ``_inputs(X)`` to return windows shaped (n, window, features).
+   (A model without torch subclasses ``thermodrift.core.components.ThermalModel`` and implements
+   ``_fit(X, y)`` and ``_predict(X)``; see the README's ``my_ridge``.)
 3. One entry-point line in your ``pyproject.toml``::
 
        [project.entry-points.thermodrift]
-       elm = "my_thermal_models.elm"
+       residual_mlp = "my_thermal_models.residual_mlp"
 
-4. ``thermodrift run model=elm`` works with no YAML: its config is built from the registry
-   (``params`` = the constructor's defaults). For other defaults ship ``my_thermal_models/conf/model/elm.yaml``
+4. ``thermodrift run model=residual_mlp`` works with no YAML: its config is built from the registry
+   (``params`` = the constructor's defaults). For other defaults ship ``my_thermal_models/conf/model/residual_mlp.yaml``
    and add ``registry.add_searchpath("pkg://my_thermal_models.conf")`` in a ``thermodrift_hydra_searchpaths`` hook.
-5. Check it: ``from thermodrift.testing import check_component; check_component("model", "elm")``
-   or subclass ``thermodrift.testing.pytest_components.ModelTests`` with ``name = "elm"`` in your tests.
+5. Check it: ``from thermodrift.testing import check_component; check_component("model", "residual_mlp")``
+   or subclass ``thermodrift.testing.pytest_components.ModelTests`` with ``name = "residual_mlp"`` in your tests.
 
-The example is an extreme learning machine: a fixed random tanh layer and a ridge read-out.
+The example is a residual MLP: a linear thermal law plus a small tanh network for the nonlinear remainder.
 """
 
-import numpy as np
-
-from thermodrift.core.components import ThermalModel
 from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.training import TorchThermalModel, trainer_search_space
 
 
 # todo: rename the class and write what it models, with units
-class ExtremeLearningMachine(ThermalModel):
-    """y (µm) = ridge read-out of tanh(z W + b), z the standardised temperatures, W and b random and fixed."""
+class ResidualMLP(TorchThermalModel):
+    """y (µm) = A z + MLP(z), z the standardised temperatures (°C); the MLP has one tanh layer of ``hidden_units``."""
 
-    # todo: one argument per hyperparameter, with defaults; store each unchanged under its own name
-    def __init__(self, n_hidden: int = 32, alpha: float = 1e-2, random_state: int | None = None):
-        self.n_hidden = n_hidden
-        self.alpha = alpha
+    # todo: your own hyper-parameters with defaults, then trainer and random_state; store each unchanged
+    def __init__(self, hidden_units: int = 8, trainer: dict | None = None, random_state: int = 0):
+        self.hidden_units = hidden_units
+        self.trainer = trainer
         self.random_state = random_state
 
-    # todo: at least two cheap parameter sets; the conformance suite runs every check with each
+    # todo: at least two cheap parameter sets (few epochs); the conformance suite runs every check with each
     @classmethod
     def get_test_params(cls):
-        return [{"n_hidden": 8, "random_state": 0}, {"n_hidden": 16, "alpha": 1.0, "random_state": 1}]
+        return [{"hidden_units": 4, "trainer": {"epochs": 6, "t0": 2}},
+                {"hidden_units": 2, "trainer": {"epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 32}}]
 
-    # todo: the default Optuna search space; only constructor arguments
+    # todo: the default Optuna search space: your parameters plus, if you like, the trainer's stabilisers
     @classmethod
     def search_space(cls):
-        return {"n_hidden": {"type": "int", "low": 4, "high": 128, "log": True},
-                "alpha": {"type": "float", "low": 1e-4, "high": 10.0, "log": True}}
+        return {"hidden_units": {"type": "int", "low": 2, "high": 32, "log": True}, **trainer_search_space()}
 
-    # todo: learn from X (DataFrame, °C) and y (ndarray (n, k), µm); store fitted attributes ending in "_"
-    def _fit(self, X, y):
-        x = X.to_numpy(dtype=float)
-        self.x_mean_, self.x_scale_ = x.mean(axis=0), x.std(axis=0) + 1e-12
-        rng = np.random.default_rng(self.random_state)
-        self.weights_ = rng.normal(0.0, 1.0, (x.shape[1], self.n_hidden))
-        self.bias_ = rng.uniform(-1.0, 1.0, self.n_hidden)
-        h = self._hidden(x)
-        self.y_mean_ = y.mean(axis=0)
-        self.readout_ = np.linalg.solve(h.T @ h + self.alpha * np.eye(self.n_hidden), h.T @ (y - self.y_mean_))
+    # todo: the network from n_inputs standardised temperatures to n_outputs standardised displacements
+    def _build(self, n_inputs, n_outputs):
+        from torch import nn  # imported here so that listing plugins does not import torch
 
-    # todo: return predictions of shape (n_samples, n_channels) in µm
-    def _predict(self, X):
-        return self._hidden(X.to_numpy(dtype=float)) @ self.readout_ + self.y_mean_
+        class Residual(nn.Module):
+            def __init__(self, hidden_units):
+                super().__init__()
+                self.linear = nn.Linear(n_inputs, n_outputs)
+                self.mlp = nn.Sequential(nn.Linear(n_inputs, hidden_units), nn.Tanh(),
+                                         nn.Linear(hidden_units, n_outputs))
 
-    def _hidden(self, x):
-        return np.tanh(((x - self.x_mean_) / self.x_scale_) @ self.weights_ + self.bias_)
+            def forward(self, x):
+                return self.linear(x) + self.mlp(x)
+
+        return Residual(self.hidden_units)
 
 
 # todo: the registry name users type in `thermodrift run model=<name>`
 @hookimpl
 def thermodrift_register_models(registry):
-    registry.add("model", "elm", ExtremeLearningMachine)
-
+    registry.add("model", "residual_mlp", ResidualMLP)

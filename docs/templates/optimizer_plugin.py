@@ -1,104 +1,62 @@
-"""Template: a thermodrift optimizer plugin (an Optuna sampler) in one file.
+"""Template: a new metaheuristic as a thermodrift optimizer plugin (an Optuna sampler) in one file.
 
 How to use:
-1. Copy this file into your package, e.g. ``my_samplers/local_search.py``, and rename class and registry name.
-2. Fill in the ``todo`` parts. Keep the rules: the factory takes ``seed`` (same seed -> same suggestions) and
-   returns an ``optuna.samplers.BaseSampler``; suggestions stay inside each parameter's range, step grid and
-   choices. Optuna calls ``infer_relative_search_space`` and ``sample_relative`` at a trial's first
-   ``suggest_*`` call, then ``sample_independent`` for every parameter the relative step did not cover.
-   Threads share one sampler (``n_jobs>1``): derive each draw's randomness from (seed, trial number, name) and
-   keep population state in the study's storage, not in the sampler object. A factory that needs the trial
-   budget for its schedule takes ``n_trials``.
+1. Copy this file into your package, e.g. ``my_samplers/jaya.py``, and rename class, prefix and registry name.
+2. Fill in the ``todo`` parts. Subclass :class:`thermodrift.optimizers.PopulationSampler` and write only the
+   algorithm's move, ``_propose(ctx) -> Move``: a position in the unit cube [0, 1]^D (D = the encoded search
+   space) for the trial in slot ``ctx.slot``. The base does the rest: encoding every parameter kind (log,
+   step, int, categorical), keeping the population in the study's storage (so threads, processes and a
+   resumed run share it), slots and generations, failed and pruned trials (worst fitness), enqueued trials
+   (adopted into the population), seeding (``ctx.rng`` is per trial), and parameters outside the common
+   search space. An algorithm that moves the whole population once per generation sets ``generational =
+   True``, reads ``ctx.population`` and may override ``_replaces(new, old_fitness)`` (greedy selection).
 3. One entry-point line in your ``pyproject.toml``::
 
        [project.entry-points.thermodrift]
-       local_search = "my_samplers.local_search"
+       jaya = "my_samplers.jaya"
 
-4. ``thermodrift run optimizer=local_search`` works with no YAML: its config is built from the registry
-   (``params`` = the constructor's defaults). For other defaults ship ``my_samplers/conf/optimizer/local_search.yaml``
+4. ``thermodrift run optimizer=jaya`` works with no YAML: its config is built from the registry
+   (``params`` = the constructor's defaults). For other defaults ship ``my_samplers/conf/optimizer/jaya.yaml``
    and add ``registry.add_searchpath("pkg://my_samplers.conf")`` in a ``thermodrift_hydra_searchpaths`` hook.
-5. Check it: ``from thermodrift.testing import check_component; check_component("optimizer", "local_search")``
-   or subclass ``thermodrift.testing.pytest_components.OptimizerTests`` with ``name = "local_search"``.
+5. Check it: ``from thermodrift.testing import check_component; check_component("optimizer", "jaya")``
+   or subclass ``thermodrift.testing.pytest_components.OptimizerTests`` with ``name = "jaya"``; Optuna's own
+   sampler suite runs on it as in thermodrift's ``tests/test_samplers_conformance.py``.
 
-The example is a local random search: each parameter is drawn near the best trial's value or uniformly.
+The example is Jaya (Rao 2016), parameter-free: each member moves towards the best and away from the worst
+member, X' = X + r1 (X_best - |X|) - r2 (X_worst - |X|), r1, r2 uniform per dimension.
 """
 
-import math
-import zlib
+from typing import Any
 
 import numpy as np
-import optuna
-from optuna.distributions import CategoricalDistribution, IntDistribution
 
 from thermodrift.core.hookspecs import hookimpl
+from thermodrift.optimizers import Context, Move, PopulationSampler
 
 
-# todo: rename the class and describe the algorithm
-class LocalRandomSearch(optuna.samplers.BaseSampler):
-    """With probability ``exploit`` a parameter is drawn around the best trial's value (a normal step of
-    ``sigma`` in the unit interval of its range), otherwise uniformly over its range."""
+# todo: rename the class, say what the algorithm does; constructor: the base's population_size, n_trials
+# and seed (keyword-only), plus your own settings, each stored unchanged under its own name
+class JayaSampler(PopulationSampler):
+    """Jaya: every member moves towards the best and away from the worst finished member."""
 
-    # todo: the seed first, then the algorithm's settings with defaults
-    def __init__(self, seed: int | None = None, exploit: float = 0.5, sigma: float = 0.1):
-        self.seed = seed
-        self.exploit = exploit
-        self.sigma = sigma
-        self._entropy = seed if seed is not None else int(np.random.SeedSequence().entropy % 2**63)
+    prefix = "jaya"  # todo: the namespace of this algorithm's trial attributes in the storage
 
-    # todo: at least two cheap settings for the conformance suite
+    # todo: at least two cheap settings for the conformance suite (small populations, small budgets)
     @classmethod
-    def get_test_params(cls):
-        return [{"exploit": 0.5}, {"exploit": 0.9, "sigma": 0.05}]
+    def get_test_params(cls) -> list[dict[str, Any]]:
+        return [{"population_size": 4, "n_trials": 20}, {"population_size": 6, "n_trials": 50}]
 
-    # todo: a joint (relative) proposal over several parameters goes here; this example has none
-    def infer_relative_search_space(self, study, trial):
-        return {}
-
-    def sample_relative(self, study, trial, search_space):
-        return {}
-
-    # todo: the per-parameter proposal
-    def sample_independent(self, study, trial, param_name, param_distribution):
-        rng = np.random.default_rng([self._entropy, trial.number, zlib.crc32(param_name.encode())])
-        best = _best_trial(study)
-        near_best = best is not None and param_name in best.params and rng.random() < self.exploit
-        if isinstance(param_distribution, CategoricalDistribution):
-            if near_best:
-                return best.params[param_name]
-            return param_distribution.choices[int(rng.integers(len(param_distribution.choices)))]
-        u = rng.random()
-        if near_best:
-            u = _to_unit(param_distribution, best.params[param_name]) + self.sigma * rng.normal()
-        return _from_unit(param_distribution, float(np.clip(u, 0.0, 1.0)))
-
-
-def _best_trial(study):
-    try:
-        return study.best_trial
-    except ValueError:  # no complete trial yet
-        return None
-
-
-def _to_unit(dist, value):
-    low, high, value = (math.log(v) for v in (dist.low, dist.high, value)) if dist.log else (dist.low, dist.high, value)
-    return (value - low) / (high - low) if high > low else 0.0
-
-
-def _from_unit(dist, u):
-    if dist.log:
-        value = math.exp(math.log(dist.low) + u * (math.log(dist.high) - math.log(dist.low)))
-    else:
-        value = dist.low + u * (dist.high - dist.low)
-    if dist.step is not None:  # snap to the grid low + k*step, never past high
-        k_max = math.floor((dist.high - dist.low) / dist.step + 1e-9)
-        value = dist.low + min(round((value - dist.low) / dist.step), k_max) * dist.step
-    if isinstance(dist, IntDistribution):
-        return int(min(max(round(value), dist.low), dist.high))
-    return float(min(max(value, dist.low), dist.high))
+    # todo: the move; ctx.latest is this slot's latest trial (None before its first), ctx.ranked every finished
+    # member with finite fitness, best first; draw every random number from ctx.rng
+    def _propose(self, ctx: Context) -> Move:
+        if ctx.latest is None or not ctx.ranked:
+            return Move(ctx.rng.random(ctx.dim), "init")
+        x, best, worst = ctx.latest.x, ctx.ranked[0].x, ctx.ranked[-1].x
+        step = ctx.rng.random(ctx.dim) * (best - np.abs(x)) - ctx.rng.random(ctx.dim) * (worst - np.abs(x))
+        return Move(np.clip(x + step, 0.0, 1.0), "move")
 
 
 # todo: the registry name users type in `thermodrift run optimizer=<name>`
 @hookimpl
 def thermodrift_register_optimizers(registry):
-    registry.add("optimizer", "local_search", LocalRandomSearch)
-
+    registry.add("optimizer", "jaya", JayaSampler)

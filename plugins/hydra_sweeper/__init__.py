@@ -11,8 +11,12 @@ stopped resumes where it stopped: ``n_trials`` is the study's total budget.
 Hydra finds this package by walking the ``hydra_plugins`` namespace package on disk. A regular install
 (``pip install .``) and a strict editable install (``pip install -e . --config-settings editable_mode=strict``)
 put it there. setuptools' default (lenient) editable install serves it through an import hook that the walk
-cannot list, so there an app calls :func:`register` before ``@hydra.main`` runs.
+cannot list, so there an app calls :func:`register` before ``@hydra.main`` runs. ``thermodrift run`` does it
+through the same entry-point door as every other plugin: this module is an entry point of the ``thermodrift``
+group whose ``thermodrift_hydra_plugins`` hook hands :func:`register` to the registry.
 """
+
+from thermodrift.core.hookspecs import hookimpl
 
 
 def register() -> None:
@@ -24,3 +28,8 @@ def register() -> None:
 
     config.store()
     Plugins.instance().register(ThermodriftSweeper)
+
+
+@hookimpl
+def thermodrift_hydra_plugins(registry):
+    registry.add_hydra_plugin(register)

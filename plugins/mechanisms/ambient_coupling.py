@@ -12,7 +12,8 @@ windows.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+                                                 nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import Edge
 
 

@@ -28,8 +28,10 @@ class CentrifugalGrowth(Mechanism):
 
     @classmethod
     def places(cls, network):
-        return [{"axes": [o.axis]} for o in network.outputs if o.axis not in
-                [q.axis for q in network.outputs[:network.outputs.index(o)]]]
+        # An axis whose outputs already carry a centrifugal term has it solved linearly: nothing to add there.
+        axes = dict.fromkeys(o.axis for o in network.outputs)
+        return [{"axes": [a]} for a in axes
+                if not any(o.centrifugal_um for o in network.outputs if o.axis == a)]
 
     def _declare(self, before, after, p, o):
         outs = changed_outputs(before, after)

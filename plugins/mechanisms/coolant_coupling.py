@@ -11,7 +11,8 @@ coolant switches. Test: coherence with the coolant inlet at its period.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+                                                 nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import Advection, Edge, Node
 
 

@@ -10,7 +10,8 @@ likelihood-ratio test of the feedback term.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+                                                 nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import PreloadFeedback as FeedbackSource
 
 

@@ -11,7 +11,8 @@ Residual signature when missing: ∝ εσ(T⁴ − T_a⁴), nearly linear in ΔT
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, nodes_of, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, nodes_of,
+                                                 target_nodes, unique_name)
 from thermodrift.core.physics.network import Edge, radiation_conductance
 
 

@@ -10,7 +10,8 @@ Residual signature when missing: steady state over-predicted at high n; cool-dow
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, added, log_bounds, nodes_of, target_nodes, unique_name
+from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+                                                 nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import Edge
 
 

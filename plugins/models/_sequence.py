@@ -38,10 +38,8 @@ def s3_search_space() -> dict[str, dict[str, Any]]:
     }
 
 
-# Trainer defaults sized for a CPU: 4,682 one-minute samples train in well under 2 minutes on 2 cores
-# (benchmarks/bench_s3_models.py measures it).
-TRAINER_DEFAULTS = dict(lr_max=3e-3, loss="mse", epochs=60, batch_size=128, t0=10, t_mult=2, patience=3,
-                        weight_decay=1e-4, random_state=0, device="auto")
+# Constructor defaults are sized for a CPU (window 16, 60 epochs, batches of 128): DLTK's fit on 3,277 rows of the
+# S3 recording takes 40 CPU-seconds on one core (benchmarks/bench_s3_models.py).
 
 
 class SequenceModel(TorchThermalModel):
@@ -64,16 +62,33 @@ class SequenceModel(TorchThermalModel):
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
         return self._network(n_inputs, n_outputs)
 
+    def _predict(self, X: pd.DataFrame) -> np.ndarray:
+        # The trainer's _predict rebuilds the network per call; a streamer calls once per row, so the built network
+        # is kept (for the current weights only) and left out of pickles.
+        from thermodrift.core.training import predict, resolve_device
+
+        cached = getattr(self, "_network_cache", None)
+        if cached is None or cached[0] is not self.state_dict_:
+            import torch
+
+            with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
+                module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
+            module.load_state_dict(self.state_dict_)
+            cached = self._network_cache = (self.state_dict_, module.eval())
+        return predict(cached[1], self._inputs(X), self.x_scaler_, self.y_scaler_,
+                       resolve_device(self.trainer_config().device))
+
+    def __getstate__(self):
+        state = super().__getstate__()
+        state.pop("_network_cache", None)
+        return state
+
     def _network(self, n_inputs: int, n_outputs: int) -> nn.Module:
         raise NotImplementedError
 
     def n_parameters(self) -> int:
         """Trainable parameters of the fitted network."""
-        return int(sum(v.numel() for k, v in self.state_dict_.items() if not _is_buffer(k)))
-
-
-def _is_buffer(key: str) -> bool:
-    return key.endswith(("running_mean", "running_var", "num_batches_tracked"))
+        return int(self.train_report_.n_parameters)
 
 
 def transformer_width(size: int, heads: int) -> int:

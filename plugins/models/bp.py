@@ -23,39 +23,25 @@ ACTIVATIONS = {"tanh": "Tanh", "sigmoid": "Sigmoid", "relu": "ReLU", "gelu": "GE
 class BPNetwork(TorchThermalModel):
     """Temperatures (°C) → displacements (µm) through ``hidden_layers`` layers of ``hidden_units`` units.
 
-    Inputs and targets are Z-scored inside the trainer; the output layer is linear. ``lr_max`` is the peak
-    learning rate of each SGDR cycle (first cycle ``t0`` epochs, each next ``t_mult`` times longer, floor
-    ``eta_min_ratio``·lr_max); ``clip_norm`` caps the gradient norm (None: off); ``patience`` counts cycle
-    ends without a better validation RMSE; ``batch_size`` None trains full-batch.
+    Inputs and targets are Z-scored inside the trainer; the output layer is linear. ``trainer`` overrides the
+    trainer's settings (:class:`~thermodrift.core.training.TrainerSettings`: SGDR ``lr_max``, ``t0``,
+    ``t_mult``, ``eta_min_ratio``, ``clip_norm``, ``epochs``, ...); ``random_state`` seeds weights and batches.
     """
 
     def __init__(self, hidden_layers: int = 2, hidden_units: int = 8, activation: str = "tanh",
-                 lr_max: float = 1e-2, weight_decay: float = 1e-4, epochs: int = 300, batch_size: int | None = None,
-                 t0: int = 20, t_mult: int = 2, eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0,
-                 patience: int | None = 3, validation_fraction: float = 0.15, random_state: int = 0,
-                 device: str = "auto"):
+                 trainer: dict | None = None, random_state: int = 0):
         self.hidden_layers = hidden_layers
         self.hidden_units = hidden_units
         self.activation = activation
-        self.lr_max = lr_max
-        self.weight_decay = weight_decay
-        self.epochs = epochs
-        self.batch_size = batch_size
-        self.t0 = t0
-        self.t_mult = t_mult
-        self.eta_min_ratio = eta_min_ratio
-        self.clip_norm = clip_norm
-        self.patience = patience
-        self.validation_fraction = validation_fraction
+        self.trainer = trainer
         self.random_state = random_state
-        self.device = device
 
     @classmethod
     def get_test_params(cls):
         return [
-            {"hidden_units": 4, "epochs": 6, "t0": 2, "t_mult": 2},
-            {"hidden_layers": 1, "hidden_units": 3, "activation": "relu", "epochs": 4, "batch_size": 32,
-             "t0": 2, "t_mult": 1, "clip_norm": None, "patience": None},
+            {"hidden_units": 4, "trainer": {"epochs": 6, "t0": 2, "t_mult": 2}},
+            {"hidden_layers": 1, "hidden_units": 3, "activation": "relu",
+             "trainer": {"epochs": 4, "batch_size": 32, "t0": 2, "t_mult": 1, "clip_norm": None, "patience": None}},
         ]
 
     @classmethod
@@ -63,7 +49,7 @@ class BPNetwork(TorchThermalModel):
         return {
             "hidden_layers": {"type": "int", "low": 1, "high": 3},
             "hidden_units": {"type": "int", "low": 3, "high": 13},
-            **trainer_search_space(),
+            **trainer_search_space(),  # trainer__lr_max, trainer__t0, ...: tuned together with the structure
         }
 
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:

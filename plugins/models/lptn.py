@@ -1,36 +1,38 @@
 """Models ``lptn`` and ``lptn_hybrid``: the calibrated lumped-parameter thermal network as a thermal-error model.
 
-``lptn`` fits by calibrating the ``auto`` baseline network (:func:`thermodrift.core.physics.calibrate.auto_network`:
+``lptn`` fits by calibrating the ``auto`` baseline network (:func:`thermodrift.core.physics.calibration.auto_network`:
 speed-driven heat, one node per temperature sensor plus hidden nodes, constant convection, linear expansion map)
-on the training part, and predicts by simulating the network over the inputs' speed (and ambient) history and
-mapping node temperatures to displacement (µm). It reads the measured temperatures only while fitting; the
-prediction needs only the speed schedule, so it extrapolates along the physics rather than the regression.
-A prediction that starts after the training data continues the simulation from the training end state (inputs
-held over any gap); one that starts inside it re-simulates from the training start; otherwise from rest.
+on the training part. It predicts as a controller runs it: a state observer (a steady-state Kalman filter over
+the calibrated network, :class:`thermodrift.core.physics.calibration.StateObserver`) carries the node
+temperatures from row to row, corrected by the measured temperatures; the hidden nodes run on the speed (and
+ambient) history. Displacement is the expansion map of the observed state, refitted on the training states with
+the calibration's ridge strength. ``history_length = None``: ``predict(X, history)`` starts the observer at the
+first history row (else at the first row of ``X``, at rest with its readings), and ``streamer(history)`` carries
+the observer state so each ``update(row)`` is one filter step.
 
 ``lptn_hybrid`` adds a data-driven residual model: ridge regression (``alpha``) of the training residual
-y − physics on the standardised measured temperatures and the physics prediction, so effects the baseline
-network leaves out (ambient swings, unmodelled heat paths) are corrected from the sensors.
+y − physics on the standardised measured temperatures and the physics prediction.
 
-Both set ``extra_input_roles = ("speed", "ambient")``: the study appends the speed column (and ambient columns
-when the recording has them) to the selected temperatures. The columns are recognised by ``X.attrs["roles"]``
-(``{column: role}``) when present, else by the ``speed_column`` / ``ambient_column`` parameters, else by name
-(``rpm``/``speed``/``spindle``; ``ambient``/``amb``), a speed column also having to look like a schedule
-(non-negative, ≥ 100 rpm, at most 64 levels).
+Both set ``extra_input_roles = ("temperature", "speed", "ambient")``: the study appends every temperature
+channel the selector left out (a network wants them all), the speed column and ambient columns. The columns are
+recognised by ``X.attrs["roles"]`` (``{column: role}``) when present, else by the ``speed_column`` /
+``ambient_column`` parameters, else by name (``rpm``/``speed``/``spindle``; ``ambient``/``amb``), a speed column
+also having to look like a schedule (non-negative, ≥ 100 rpm, at most 64 levels).
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
 from sklearn.linear_model import Ridge
 
-from thermodrift.core.components import ThermalModel
+from thermodrift.core.components import Streamer, ThermalModel
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics import calibrate as cal
-from thermodrift.core.physics.scenarios import Scenario
+from thermodrift.core.physics import calibration as cal
+from thermodrift.core.physics.calibration.objective import ridge_solve
 from thermodrift.core.recording import Channel, Recording
 
 _SPEED_WORDS = ("rpm", "speed", "spindle")
@@ -64,26 +66,27 @@ def input_roles(X: pd.DataFrame, speed_column: str | None = None,
 
 
 class LPTN(ThermalModel):
-    """Calibrated auto baseline network (see the module docstring).
+    """Calibrated auto baseline network with a state observer (see the module docstring).
 
-    ``hidden_nodes``: unobserved nodes acting on the displacements; ``max_seconds``: wall-clock limit of one
-    calibration (s); ``max_fit_samples``: grid of the calibration search (samples).
+    ``hidden_nodes``: unobserved nodes acting on the displacements; ``max_evaluations``: iteration cap of the
+    calibration search; ``max_fit_samples``: cap of its fit grid (samples).
     """
 
-    extra_input_roles: ClassVar[tuple[str, ...]] = ("speed", "ambient")
+    extra_input_roles: ClassVar[tuple[str, ...]] = ("temperature", "speed", "ambient")
+    history_length: ClassVar[int | None] = None
 
-    def __init__(self, hidden_nodes: int = 2, max_seconds: float = 60.0, max_fit_samples: int = 2500,
+    def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
                  speed_column: str | None = None, ambient_column: str | None = None):
         self.hidden_nodes = hidden_nodes
-        self.max_seconds = max_seconds
+        self.max_evaluations = max_evaluations
         self.max_fit_samples = max_fit_samples
         self.speed_column = speed_column
         self.ambient_column = ambient_column
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
-        return [{"hidden_nodes": 1, "max_seconds": 1.0, "max_fit_samples": 150},
-                {"hidden_nodes": 0, "max_seconds": 1.0, "max_fit_samples": 150}]
+        return [{"hidden_nodes": 1, "max_evaluations": 5, "max_fit_samples": 150},
+                {"hidden_nodes": 0, "max_evaluations": 5, "max_fit_samples": 150}]
 
     @classmethod
     def search_space(cls) -> dict[str, dict[str, Any]]:
@@ -93,6 +96,7 @@ class LPTN(ThermalModel):
         self.speed_, self.ambient_, self.temperatures_ = input_roles(X, self.speed_column, self.ambient_column)
         targets = [f"y:{t}" for t in self.target_names_]
         data = X[[*self.temperatures_, self.speed_, *([self.ambient_] if self.ambient_ else [])]].copy()
+        data.index = pd.Index(np.asarray(X.index, dtype=float), name="time_s")
         channels = {c: Channel(c, "temperature", "degC", {}) for c in self.temperatures_}
         channels[self.speed_] = Channel(self.speed_, "speed", "rpm", {})
         if self.ambient_:
@@ -101,55 +105,90 @@ class LPTN(ThermalModel):
             data[name] = column
             channels[name] = Channel(name, "displacement", "um", {})
         recording = Recording(data, channels, source="lptn training data")
-        self.calibration_ = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_seconds=self.max_seconds,
-                                          max_fit_samples=self.max_fit_samples, intervals=False)
-        self.network_ = self.calibration_.network
-        self.outputs_ = targets
-        self.train_inputs_ = self._inputs(X)
-        _, nodes = cal.predict(self.network_, Scenario(self.train_inputs_, "train"))
-        self.reference_state_, self.end_state_ = nodes[0], nodes[-1]
+        result = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
+                               max_fit_samples=self.max_fit_samples, intervals=False)
+        self.network_ = result.network
+        nodes = {s.name: s.weights for s in self.network_.temperature_sensors}
+        self.observer_ = cal.StateObserver(
+            self.network_, self.temperatures_, noise_K=result.sigma,
+            process_K={next(iter(nodes[c])): max(result.rmse[c], result.sigma[c]) for c in self.temperatures_})
+        t, speed, ambient, temps = self._columns(X)
+        u = np.zeros(self.observer_.comp.n_inputs)
+        u[:3] = 1.0, ambient[0], ambient[0]
+        self.reference_ = self.observer_.comp.steady_state(0.0, 1.0, u)
+        states = self._observe(self._fresh(), X)
+        # the expansion map refitted on the observed states, with the calibration's ridge strength
+        A = np.column_stack([states - self.reference_, np.ones(len(states))])
+        lam = max(result.ridge.values(), default=0.0)
+        beta = ridge_solve(A, y, lam)
+        self.coef_, self.intercept_ = beta[:-1], beta[-1]
+        self.rmse_calibration_ = result.rmse
 
-    def _inputs(self, X: pd.DataFrame) -> pd.DataFrame:
-        """Speed (rpm) and ambient (°C) of ``X`` indexed by time in s."""
-        frame = pd.DataFrame({"speed_rpm": np.clip(X[self.speed_].to_numpy(dtype=float), 0.0, None)},
-                             index=pd.Index(np.asarray(X.index, dtype=float), name="time_s"))
-        frame["ambient_degC"] = (X[self.ambient_].to_numpy(dtype=float) if self.ambient_
-                                 else cal.AUTO_AMBIENT_DEGC)
-        return frame
+    def _columns(self, X: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(time s, speed rpm, ambient °C, temperatures °C) of ``X``."""
+        t = np.asarray(X.index, dtype=float)
+        speed = np.round(np.clip(X[self.speed_].to_numpy(dtype=float), 0.0, None) / 10.0) * 10.0
+        ambient = (X[self.ambient_].to_numpy(dtype=float) if self.ambient_
+                   else np.full(len(X), cal.AUTO_AMBIENT_DEGC))
+        return t, speed, ambient, X[self.temperatures_].to_numpy(dtype=float)
+
+    def _fresh(self) -> cal.StateObserver:
+        obs = copy.copy(self.observer_)
+        obs.x, obs._last = None, None
+        return obs
+
+    def _observe(self, obs: cal.StateObserver, X: pd.DataFrame) -> np.ndarray:
+        t, speed, ambient, temps = self._columns(X)
+        return obs.run(t, speed, ambient, ambient, temps)
 
     def physics(self, X: pd.DataFrame) -> np.ndarray:
-        """Simulated displacements (µm, n × k) over the inputs' time, continuing the training history."""
-        new, train = self._inputs(X), self.train_inputs_
-        t0 = new.index[0]
-        if t0 > train.index[-1]:
-            initial = self.end_state_
-            inputs = pd.concat([train.iloc[[-1]], new])  # the last training inputs held up to the new data
-        elif t0 > train.index[0]:
-            initial = None
-            inputs = pd.concat([train[train.index < t0], new])
-        else:  # from rest (a single sample gets a rest sample 1 s before it, to make a valid scenario)
-            initial = None
-            inputs = new if len(new) > 1 else pd.concat([new.assign(speed_rpm=0.0).set_axis([t0 - 1.0]), new])
-        readings, _ = cal.predict(self.network_, Scenario(inputs, "inputs"), initial=initial,
-                                  reference=self.reference_state_)
-        return readings[self.outputs_].to_numpy()[len(inputs) - len(new):]
+        """Displacements (µm, n × k) of the observed network state over ``X`` (observer started at its first row)."""
+        return (self._observe(self._fresh(), X) - self.reference_) @ self.coef_ + self.intercept_
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         return self.physics(X)
+
+    def streamer(self, history: pd.DataFrame | None = None) -> "_LPTNStreamer":
+        return _LPTNStreamer(self, history)
+
+    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
+        """Output for one row given its physics (the hybrid adds its residual model)."""
+        return phys
+
+
+class _LPTNStreamer(Streamer):
+    """One observer step per row (the row's name is its time in s)."""
+
+    def __init__(self, model: LPTN, history: pd.DataFrame | None = None):
+        self.model = model
+        self.obs = model._fresh()
+        self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
+        if history is not None and len(history):
+            model._observe(self.obs, history)
+
+    def update(self, row) -> np.ndarray:
+        m = self.model
+        v = self.values(row)
+        n = len(m.temperatures_)
+        temps = v[:n]
+        speed = round(max(float(v[n]), 0.0) / 10.0) * 10.0
+        ambient = float(v[n + 1]) if m.ambient_ else cal.AUTO_AMBIENT_DEGC
+        x = self.obs.update(float(row.name), speed, ambient, ambient, temps)
+        return m._correct(temps, ambient, (x - m.reference_) @ m.coef_ + m.intercept_)
 
 
 class LPTNHybrid(LPTN):
     """Physics plus a ridge model (``alpha``) of its training residual on temperatures and physics output."""
 
-    def __init__(self, hidden_nodes: int = 2, max_seconds: float = 60.0, max_fit_samples: int = 2500,
+    def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
                  alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None):
-        super().__init__(hidden_nodes, max_seconds, max_fit_samples, speed_column, ambient_column)
+        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column)
         self.alpha = alpha
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
-        return [{"hidden_nodes": 1, "max_seconds": 1.0, "max_fit_samples": 150, "alpha": 1.0},
-                {"hidden_nodes": 0, "max_seconds": 1.0, "max_fit_samples": 150, "alpha": 100.0}]
+        return [{"hidden_nodes": 1, "max_evaluations": 5, "max_fit_samples": 150, "alpha": 1.0},
+                {"hidden_nodes": 0, "max_evaluations": 5, "max_fit_samples": 150, "alpha": 100.0}]
 
     @classmethod
     def search_space(cls) -> dict[str, dict[str, Any]]:
@@ -164,13 +203,19 @@ class LPTNHybrid(LPTN):
         phys = self.physics(X)
         F = self._features(X, phys)
         self.f_mean_, self.f_scale_ = F.mean(axis=0), F.std(axis=0) + 1e-12
-        self.residual_model_ = Ridge(alpha=self.alpha, solver="svd").fit((F - self.f_mean_) / self.f_scale_,
-                                                                          y - phys)
+        ridge = Ridge(alpha=self.alpha, solver="svd").fit((F - self.f_mean_) / self.f_scale_, y - phys)
+        # kept as arrays: one streamed row is then one dot product
+        self.res_coef_ = np.asarray(ridge.coef_, dtype=float).reshape(y.shape[1], -1).T / self.f_scale_[:, None]
+        self.res_intercept_ = np.asarray(ridge.intercept_, dtype=float).reshape(-1) - self.f_mean_ @ self.res_coef_
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         phys = self.physics(X)
-        F = (self._features(X, phys) - self.f_mean_) / self.f_scale_
-        return phys + self.residual_model_.predict(F).reshape(len(X), -1)
+        return phys + self._features(X, phys) @ self.res_coef_ + self.res_intercept_
+
+    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
+        n = len(temps)
+        out = phys + temps @ self.res_coef_[:n] + phys @ self.res_coef_[-len(phys):] + self.res_intercept_
+        return out + ambient * self.res_coef_[n] if self.ambient_ else out
 
 
 @hookimpl

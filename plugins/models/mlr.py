@@ -3,9 +3,10 @@
 The standard industrial thermal-error model and the baseline shown beside every other model.
 """
 
+import numpy as np
 from sklearn.linear_model import Ridge
 
-from thermodrift.core.components import ThermalModel
+from thermodrift.core.components import Streamer, ThermalModel
 from thermodrift.core.hookspecs import hookimpl
 
 
@@ -30,6 +31,22 @@ class MLR(ThermalModel):
 
     def _predict(self, X):
         return self.regressor_.predict((X.to_numpy(dtype=float) - self.x_mean_) / self.x_scale_)
+
+    def streamer(self, history=None) -> "_LinearStreamer":
+        return _LinearStreamer(self, history)
+
+
+class _LinearStreamer(Streamer):
+    """Memoryless: one dot product per row with the coefficients in °C units."""
+
+    def __init__(self, model: MLR, history=None):
+        super().__init__(model, None)
+        coef = np.asarray(model.regressor_.coef_, dtype=float).reshape(-1, len(self.columns))
+        self.weights = (coef / model.x_scale_).T
+        self.bias = np.asarray(model.regressor_.intercept_, dtype=float).reshape(-1) - model.x_mean_ @ self.weights
+
+    def update(self, row) -> np.ndarray:
+        return self.values(row) @ self.weights + self.bias
 
 
 @hookimpl

@@ -45,14 +45,9 @@ class PSOBPNN(BPNetwork):
 
     def __init__(self, hidden_layers: int = 2, hidden_units: int = 8, activation: str = "tanh",
                  swarm_size: int = 20, pso_iterations: int = 30, weight_bound: float = 1.0, inertia: float = 0.729,
-                 c1: float = 1.49445, c2: float = 1.49445, lr_max: float = 1e-2, weight_decay: float = 1e-4,
-                 epochs: int = 300, batch_size: int | None = None, t0: int = 20, t_mult: int = 2,
-                 eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0, patience: int | None = 3,
-                 validation_fraction: float = 0.15, random_state: int = 0, device: str = "auto"):
+                 c1: float = 1.49445, c2: float = 1.49445, trainer: dict | None = None, random_state: int = 0):
         super().__init__(hidden_layers=hidden_layers, hidden_units=hidden_units, activation=activation,
-                         lr_max=lr_max, weight_decay=weight_decay, epochs=epochs, batch_size=batch_size, t0=t0,
-                         t_mult=t_mult, eta_min_ratio=eta_min_ratio, clip_norm=clip_norm, patience=patience,
-                         validation_fraction=validation_fraction, random_state=random_state, device=device)
+                         trainer=trainer, random_state=random_state)
         self.swarm_size = swarm_size
         self.pso_iterations = pso_iterations
         self.weight_bound = weight_bound
@@ -62,21 +57,21 @@ class PSOBPNN(BPNetwork):
 
     @classmethod
     def get_test_params(cls):
-        return [{"hidden_units": 4, "swarm_size": 4, "pso_iterations": 3, "epochs": 6, "t0": 2},
-                {"hidden_layers": 1, "hidden_units": 3, "swarm_size": 3, "pso_iterations": 2, "epochs": 4,
-                 "t0": 2, "t_mult": 1, "patience": None}]
+        return [{"hidden_units": 4, "swarm_size": 4, "pso_iterations": 3, "trainer": {"epochs": 6, "t0": 2}},
+                {"hidden_layers": 1, "hidden_units": 3, "swarm_size": 3, "pso_iterations": 2,
+                 "trainer": {"epochs": 4, "t0": 2, "t_mult": 1, "patience": None}}]
 
     @classmethod
     def search_space(cls):
         return {"hidden_layers": {"type": "int", "low": 1, "high": 2},
                 "hidden_units": {"type": "int", "low": 3, "high": 13},
-                "lr_max": trainer_search_space()["lr_max"]}
+                "trainer__lr_max": trainer_search_space()["trainer__lr_max"]}
 
     def _fit(self, X: pd.DataFrame, y: np.ndarray) -> None:
         if self.swarm_size < 1 or self.pso_iterations < 1 or self.weight_bound <= 0:
             raise ValueError("swarm_size and pso_iterations must be >= 1 and weight_bound > 0")
         inputs = self._inputs(X)
-        config = self.trainer_config()
+        config = self.trainer_settings()
         # The trainer's own split and scaling (training.train): the swarm sees only the rows BP trains on.
         n_val = max(1, round(config.validation_fraction * len(inputs))) if config.validation_fraction > 0 else 0
         n_train = max(1, len(inputs) - n_val)
@@ -89,7 +84,7 @@ class PSOBPNN(BPNetwork):
             module.load_state_dict(start)
             return module
 
-        result = train(build, inputs, y, config)
+        result = train(build, inputs, y, config, random_state=self.random_state)
         self.state_dict_ = result.state_dict
         self.x_scaler_, self.y_scaler_ = result.x_scaler, result.y_scaler
         self.train_report_ = result.report

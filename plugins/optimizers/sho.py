@@ -5,7 +5,8 @@ Generation 0 is the random initial population; then each iteration is two genera
 * movement + predation (odd generations). Movement: with r1 ~ N(0,1) > 0 a spiral around the elite,
   X1 = X_i + Levy(lambda) ((X_elite - X_i) x y z + X_elite), rho = u e^(theta v), x = rho cos(theta),
   y = rho sin(theta), z = rho theta, theta ~ U(0, 2 pi), u = v = 0.05; else Brownian drift,
-  X1 = X_i + r l beta (X_i - beta X_elite), beta ~ N(0,1)^D, r ~ U(0,1)^D, l = 0.05 (as in the authors' code). Predation: with r2 ~ U(0,1) >= 0.1 the catch,
+  X1 = X_i + r l beta (X_i - beta X_elite), beta ~ N(0,1)^D, r ~ U(0,1)^D, l = 0.05 (as in the authors' code).
+  Predation: with r2 ~ U(0,1) >= 0.1 the catch,
   X2 = alpha (X_elite - r X1) + (1 - alpha) X_elite, else X2 = (1 - alpha)(X1 - r X_elite) + alpha X1, with
   alpha = (1 - t/T)^(2t/T). X2 replaces X_i (as in the paper, no greedy choice).
 * breeding (even generations): the ranked population is cut into fathers (better half) and mothers (worse half);

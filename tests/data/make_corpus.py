@@ -115,6 +115,7 @@ def main() -> None:
     case("table_is_directory", table=None, table_name="table.csv",
          expect={"file": T, "match": "table is a directory"})
     (HERE / "bad" / "table_is_directory" / T).mkdir()
+    (HERE / "bad" / "table_is_directory" / T / ".gitkeep").touch()  # git keeps no empty folder
     case("nul_bytes", table=good[:200] + "\0" * 64 + good[200:], expect={"file": T, "match": "NUL byte at byte 200"})
     case("gzip_named_csv", table=None, expect={"file": T, "match": "the file is gzip-compressed data"})
     (HERE / "bad" / "gzip_named_csv" / T).write_bytes(gzip.compress(good.encode(), mtime=0))
@@ -185,6 +186,7 @@ def main() -> None:
     case("manifest_empty", table=good, manifest="", expect={"file": M, "match": "manifest is empty"})
     case("manifest_is_directory", table=good, manifest=None, expect={"file": M, "match": "manifest is a directory"})
     (HERE / "bad" / "manifest_is_directory" / M).mkdir()
+    (HERE / "bad" / "manifest_is_directory" / M / ".gitkeep").touch()  # git keeps no empty folder
     case("manifest_binary", table=good, manifest=MANIFEST + "\0\0\0\n", expect={"file": M, "match": "binary data"})
     case("manifest_not_utf8", table=good, manifest=None, expect={"file": M, "match": "cannot read the manifest"})
     (HERE / "bad" / "manifest_not_utf8" / M).write_bytes(MANIFEST.replace("front_bearing", "Lager vorn ä")

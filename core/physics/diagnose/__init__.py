@@ -1,0 +1,291 @@
+"""The missing-physics finder: where the calibrated model misses, which mechanism was left out, how sure.
+
+Pipeline (:func:`diagnose`)::
+
+    final block   the last ~20 % of the recording (cut at a condition boundary) is kept out of everything
+                  below and only scores the result (``heldout_rmse_um``)
+    baseline      calibrate the network (``auto``, or a spec with its parameters fixed and only the linear
+                  offsets and sensitivities solved) on the rest
+    screen        every registered mechanism × place × shape: regress the residual on its re-simulated,
+                  linearised response (:mod:`.screening`); mechanisms whose drivers are missing or constant
+                  are skipped with that reason
+    fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
+    accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
+                  screened candidates), its fitted parameters lie within their physical bounds, it explains
+                  at least 5 % of the baseline's misfit (a margin for model error the white-noise test does
+                  not see) and its condition-blocked cross-validated gain is positive in at least half the
+                  blocks; then screen again on the augmented network (forward selection) until nothing passes
+    confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
+                  which the mechanism wins among the fitted candidates and passes the same tests); parameter
+                  intervals from the re-simulation fit
+    equivalence   a rival mechanism fitting within 5 % of the winner's gain: "not identifiable from this
+                  data", with the experiment that separates them
+
+:func:`diagnose` returns a :class:`Diagnosis`; :mod:`.report` writes ``report.json`` (the shape outside
+checks read), ``report.md``, figures, the residual series and an optional MLflow run.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from thermodrift.core.errors import InputError
+from thermodrift.core.physics.calibration import calibrate
+from thermodrift.core.physics.diagnose import screening, selection
+from thermodrift.core.physics.diagnose.windows import DriverWindow, condition_blocks, driver_windows
+from thermodrift.core.physics.network import Network
+from thermodrift.core.physics.scenarios import Scenario
+
+MIN_HOURS = 4.0
+MIN_SAMPLES = 200
+FINAL_SHARE = 0.2
+EQUIVALENT = 0.05   # rival within this share of the winner's gain: not identifiable
+MIN_SHARE = 0.05    # an accepted mechanism explains at least this share of the (balanced) misfit
+
+
+@dataclass
+class Diagnosis:
+    """Everything :func:`diagnose` found; :func:`thermodrift.core.physics.diagnose.report.to_json` shapes it."""
+
+    channels: list[str]
+    kinds: list[str]
+    time_s: np.ndarray
+    measured: np.ndarray
+    baseline: np.ndarray              # readings (samples, channels)
+    augmented: np.ndarray
+    fit_rows: np.ndarray              # bool
+    findings: list[dict[str, Any]]
+    rejected: list[dict[str, Any]]
+    windows: list[DriverWindow]
+    baseline_network: Network
+    augmented_network: Network
+    screened: int
+    seconds: float
+    speed_rpm: np.ndarray
+    trace: list[dict[str, Any]] = field(default_factory=list)  # every fitted candidate, per round
+
+    @property
+    def displacement_channels(self) -> list[str]:
+        return [c for c, k in zip(self.channels, self.kinds) if k == "displacement"]
+
+    def rmse(self, readings: np.ndarray, rows: np.ndarray) -> dict[str, float]:
+        out = {}
+        for j, (c, k) in enumerate(zip(self.channels, self.kinds)):
+            if k == "displacement":
+                r = (self.measured[:, j] - readings[:, j])[rows]
+                out[c] = float(np.sqrt(np.mean((r - 0.0) ** 2)))
+        return out
+
+    def residuals(self) -> pd.DataFrame:
+        """Measured minus baseline and minus augmented prediction per channel (K, µm), indexed by time_s."""
+        cols = {}
+        for j, c in enumerate(self.channels):
+            cols[f"{c}|baseline"] = self.measured[:, j] - self.baseline[:, j]
+            cols[f"{c}|augmented"] = self.measured[:, j] - self.augmented[:, j]
+        frame = pd.DataFrame(cols, index=pd.Index(self.time_s, name="time_s"))
+        frame.insert(0, "final_block", ~self.fit_rows)
+        return frame
+
+
+def check_input(recording) -> None:
+    """InputError (one line) for a recording the finder cannot work on."""
+    src = recording.source
+    if not recording.columns("displacement"):
+        raise InputError(f"{src}: no displacement channel", hint="give the drift columns role: displacement")
+    speed = recording.speed
+    if speed is None:
+        raise InputError(f"{src}: no speed channel", hint="give the spindle speed column role: speed")
+    hours = recording.duration_s / 3600.0
+    if len(recording) < MIN_SAMPLES or hours < MIN_HOURS:
+        raise InputError(f"{src}: too short to diagnose ({len(recording)} samples, {hours:.1f} h)",
+                         hint=f"record at least {MIN_HOURS:g} h and {MIN_SAMPLES} samples, with a stop")
+
+
+def final_cut(recording, share: float = FINAL_SHARE) -> float:
+    """Start time (s) of the final block: the condition boundary nearest (1 − share) of the duration,
+    keeping at least half the recording before it and 10 % after."""
+    t = recording.time_s
+    spans = recording.condition_spans()
+    t0, t1 = float(t[0]), float(t[-1])
+    target = t0 + (1 - share) * (t1 - t0)
+    ok = spans["start_s"][(spans["start_s"] >= t0 + 0.5 * (t1 - t0)) & (spans["start_s"] <= t0 + 0.9 * (t1 - t0))]
+    if len(ok):
+        return float(ok.iloc[int(np.argmin(np.abs(ok.to_numpy() - target)))])
+    return target
+
+
+def diagnose(recording, network: Network | None = None, *, registry=None, seed: int = 0, alpha: float = 0.01,
+             top: int = 3, max_rounds: int = 3, bootstrap: int = 200, baseline_evaluations: int = 200,
+             fit_evaluations: int = 40, only: list[str] | None = None) -> Diagnosis:
+    """Find the mechanisms ``network`` (None: the ``auto`` baseline) misses in ``recording``; see the module
+    docstring. ``only`` restricts the mechanism library (ids). The same seed and data give the same result."""
+    clock = time.perf_counter()
+    check_input(recording)
+    if registry is None:
+        from thermodrift.core import registry as reg_module
+        registry = reg_module.default()
+    t = recording.time_s
+    fit_rows = t < final_cut(recording)
+    fit_rec = recording.select(fit_rows)
+    if network is None:
+        cal = calibrate(fit_rec, None, intervals=False, max_evaluations=baseline_evaluations)
+    else:
+        cal = calibrate(fit_rec, network, free=[], intervals=False)
+    channels = list(cal.sigma)
+    kinds = [cal.channel_kind[c] for c in channels]
+    sigma = np.array([cal.sigma[c] for c in channels])
+    scenario = Scenario.from_recording(recording)
+    measured = recording.data[channels].to_numpy(dtype=float)
+    rows = np.flatnonzero(fit_rows)
+    blocks = condition_blocks(recording, rows)
+    base = screening.baseline_of(cal.network, scenario, channels, measured, rows)
+    first = base
+    findings: list[dict[str, Any]] = []
+    rejected: list[dict[str, Any]] = []
+    accepted: set[str] = set()
+    windows = driver_windows(recording)
+    trace: list[dict[str, Any]] = []
+    screened = 0
+    for round_ in range(max_rounds):
+        cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only)
+        if round_ == 0:
+            rejected += skipped
+        cands = [c for c in cands if c.mechanism not in accepted]
+        if not cands:
+            break
+        screen = screening.prepare(base, measured, sigma, kinds, channels, rows, blocks)
+        m = len(cands)
+        screened += m
+        for c in cands:
+            screening.score(screen, c, m)
+        singles: dict[str, list[screening.Candidate]] = {}
+        for c in cands:
+            singles.setdefault(c.mechanism, []).append(c)
+        per_mech = [screening.best_compound(screen, v) for v in singles.values()]
+        ranked = sorted([c for c in per_mech if c.dsse_bal > 0], key=lambda c: -c.dsse_bal)[:top]
+        weights = np.zeros(len(channels))
+        for w, members in zip(screen.weights, screen.groups):
+            weights[members] = w
+        fitted = []
+        for c in ranked:
+            try:
+                fitted.append(selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
+                                            base.readings, rows, blocks, fit_evaluations))
+            except InputError as exc:  # the augmented network cannot be simulated at some parameter value
+                rejected.append({"mechanism": c.mechanism, "reason": f"fit failed: {exc}"})
+        if not fitted:
+            break
+        floor = MIN_SHARE * screen.sse0_bal
+        trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
+            screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
+            "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins} for f in fitted]
+        passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
+                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside]
+        if not passing:
+            for f in fitted:
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": _why_not(f, alpha, m, floor)})
+            break
+        win = max(passing, key=lambda f: f.dsse_bal)
+        rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
+                  and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
+        sse0_blocks = np.zeros(int(blocks.max()) + 1)
+        for w_g, members in zip(screen.weights, screen.groups):
+            for c_ in members:
+                sse0_blocks += w_g * np.bincount(blocks, screen.resid[c_] ** 2, minlength=len(sse0_blocks))
+        inclusion = selection.bootstrap_inclusion(fitted, sse0_blocks, m, alpha, MIN_SHARE, bootstrap, seed + round_)
+        findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
+                                 kinds, channels, windows, t, alpha))
+        for f in rivals:
+            rejected.append({"mechanism": f.candidate.mechanism,
+                             "reason": f"not identifiable from this data: explains the residual as well as "
+                                       f"{win.candidate.mechanism} (within {EQUIVALENT:.0%}); "
+                                       f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
+        for f in fitted:
+            if f is not win and f not in rivals:
+                reason = (_why_not(f, alpha, m, floor) if f not in passing else
+                          f"explains less than {win.candidate.mechanism} "
+                          f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
+        accepted.add(win.candidate.mechanism)
+        base = screening.baseline_of(win.network, scenario, channels, measured, rows)
+    listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
+    for mid in registry.names("mechanism"):
+        if (only is None or mid in only) and mid not in listed:
+            rejected.append({"mechanism": mid, "reason": "screened: its response explains less of the residual "
+                                                         "than the candidates fitted"})
+    return Diagnosis(channels, kinds, t, measured, first.readings, base.readings, fit_rows, findings,
+                     _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(recording),
+                     cal.network, base.network, screened, time.perf_counter() - clock,
+                     scenario.frame["speed_rpm"].to_numpy(), trace)
+
+
+def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
+    out, seen = [], set(found)
+    for r in rejected:
+        if r["mechanism"] not in seen:
+            seen.add(r["mechanism"])
+            out.append(r)
+    return out
+
+
+def _why_not(f, alpha: float, m: int, floor: float) -> str:
+    c = f.candidate
+    if f.dsse <= 0:
+        return "re-simulated fit does not lower the misfit"
+    if f.p_value >= alpha / m:
+        return f"not significant: likelihood ratio {f.dsse:.3g}, p = {f.p_value:.2g} ≥ {alpha:g}/{m} (Bonferroni)"
+    if f.dsse_bal < floor:
+        return f"explains under {MIN_SHARE:.0%} of the baseline's misfit"
+    if f.outside:
+        return "fits only with unphysical values: " + "; ".join(f.outside)
+    return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
+
+
+def _experiment(a: str, b: str) -> str:
+    ea, eb = selection.EXPERIMENTS.get(a, "an experiment driving it alone"), selection.EXPERIMENTS.get(
+        b, "an experiment driving it alone")
+    return f"to separate them: {ea} (for {a}) against {eb} (for {b})"
+
+
+def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, kinds, channels, windows, t, alpha):
+    c = win.candidate
+    disp = [j for j, k in enumerate(kinds) if k == "displacement"]
+    gain = ((measured - before) / sigma) ** 2 - ((measured - after) / sigma) ** 2
+    use = disp if np.abs(gain[:, disp]).sum() > 0.1 * np.abs(gain).sum() else list(range(len(channels)))
+    where = []
+    for j in use:
+        g = gain[:, j]
+        total = g[g > 0].sum()
+        if total <= 0:
+            continue
+        for w in windows:
+            mask = w.mask(t)
+            if mask.sum() < 2:
+                continue
+            share = float(g[mask].sum() / total)
+            excess = share / (mask.mean())
+            where.append((share * min(excess, 10.0), {"channel": channels[j], "start_s": w.start_s,
+                                                       "end_s": w.end_s, "window": w.name}))
+    where = [w for _, w in sorted(where, key=lambda x: -x[0])[:3]]
+    conf = float(inclusion.get(c.mechanism, 0.0))
+    share = win.dsse_bal / screen.sse0_bal if screen.sse0_bal > 0 else 0.0
+    evidence = (f"{c.label} explains {share:.0%} of the baseline's misfit on the fitted data "
+                f"(likelihood ratio {win.dsse:.3g}, p = {win.p_value:.2g} < {alpha:g}/{m}, Bonferroni over "
+                f"{m} candidates; held-out condition blocks improved: {c.cv_wins:.0%}), as its signature says: "
+                f"{c.signature}")
+    if rivals:
+        evidence += ("; not identifiable from this data against " + ", ".join(r.candidate.mechanism for r in rivals)
+                     + " (" + _experiment(c.mechanism, rivals[0].candidate.mechanism) + ")")
+    return {"mechanism": c.mechanism, "confidence": round(conf, 3),
+            "parameters": {k: round(v, 6) for k, v in win.parameters.items()},
+            "ci": {k: (None if v is None else [round(v[0], 6), round(v[1], 6)]) for k, v in win.ci.items()},
+            "where": [{k: (round(v, 1) if isinstance(v, float) else v) for k, v in w.items() if k != "window"}
+                      for w in where],
+            "evidence": evidence + ".",
+            "_place": c.options, "_shape": c.shape, "_windows": [w["window"] for w in where],
+            "_gain_share": share}

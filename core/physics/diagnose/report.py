@@ -1,0 +1,225 @@
+"""What :func:`thermodrift.core.physics.diagnose.diagnose` found, written for people and for outside checks.
+
+``report.json`` has exactly the shape outside checks read (channel keys are the recording's displacement
+channels; ``rmse_um`` over the data the models were fitted on, ``heldout_rmse_um`` over the final block that
+neither screening, selection nor fitting saw)::
+
+    {"baseline": {"rmse_um": {ch: x}, "heldout_rmse_um": {ch: x}},
+     "findings": [{"mechanism", "confidence", "parameters", "ci", "where": [{"channel", "start_s", "end_s"}],
+                   "evidence"}],
+     "rejected": [{"mechanism", "reason"}],
+     "augmented": {"rmse_um": {...}, "heldout_rmse_um": {...}},
+     "verdict": "one paragraph"}
+
+Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
+sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
+channel: measured, baseline, augmented) and, with a tracking URI, an MLflow run.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def _r(x: float) -> float:
+    return round(float(x), 4)
+
+
+def to_json(d) -> dict[str, Any]:
+    fit, final = d.fit_rows, ~d.fit_rows
+    findings = [{k: f[k] for k in ("mechanism", "confidence", "parameters", "ci", "where", "evidence")}
+                for f in d.findings]
+    return {
+        "baseline": {"rmse_um": {c: _r(v) for c, v in d.rmse(d.baseline, fit).items()},
+                     "heldout_rmse_um": {c: _r(v) for c, v in d.rmse(d.baseline, final).items()}},
+        "findings": findings,
+        "rejected": [{"mechanism": r["mechanism"], "reason": r["reason"]} for r in d.rejected],
+        "augmented": {"rmse_um": {c: _r(v) for c, v in d.rmse(d.augmented, fit).items()},
+                      "heldout_rmse_um": {c: _r(v) for c, v in d.rmse(d.augmented, final).items()}},
+        "verdict": verdict(d),
+    }
+
+
+def _what(mechanism: str) -> str:
+    """The mechanism's one-line description (its module docstring's first line after the id)."""
+    from thermodrift.core import registry
+
+    try:
+        doc = importlib.import_module(registry.default().get("mechanism", mechanism).factory.__module__).__doc__
+        return doc.strip().splitlines()[0].split(" — ", 1)[-1].rstrip(".")
+    except Exception:  # a third-party mechanism without a docstring still gets a verdict
+        return mechanism.replace("_", " ")
+
+
+def verdict(d) -> str:
+    final = ~d.fit_rows
+    before, after = d.rmse(d.baseline, final), d.rmse(d.augmented, final)
+    drift = "; ".join(f"{c} {before[c]:.2f} → {after[c]:.2f} µm" for c in before)
+    if not d.findings:
+        return ("Nothing is missing as far as this data can tell: no mechanism in the library explains a "
+                "significant share of what the calibrated model misses (every candidate failed the corrected "
+                "likelihood-ratio test, the held-out condition blocks or the 5 % floor; see rejected). "
+                f"The calibrated model's drift error on the final, unseen block: "
+                + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + ".")
+    parts = []
+    for f in d.findings:
+        sure = "high" if f["confidence"] >= 0.8 else "moderate" if f["confidence"] >= 0.5 else "low"
+        where = f["where"][0] if f["where"] else None
+        at = (f", most visible on {where['channel']} between {where['start_s'] / 3600:.1f} h and "
+              f"{where['end_s'] / 3600:.1f} h") if where else ""
+        parts.append(f"{f['mechanism'].replace('_', ' ')} ({_what(f['mechanism'])}; {sure} confidence, "
+                     f"{f['confidence']:.0%} of block-bootstrap resamples{at})")
+    unsure = [r for r in d.rejected if r["reason"].startswith("not identifiable")]
+    text = ("The calibrated model leaves out " + "; then ".join(parts) + ". "
+            f"Adding {'it' if len(parts) == 1 else 'them'} changes the drift error on the final block that no step "
+            f"of the search saw: {drift}.")
+    if unsure:
+        text += " " + " ".join(f"{r['mechanism'].replace('_', ' ')} would explain it as well ({r['reason']})."
+                               for r in unsure)
+    return text
+
+
+def write(d, out: str | Path, command: str = "") -> dict[str, Any]:
+    """Write report.json, report.md, residuals.csv and the figures into ``out``; returns the JSON dict."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = to_json(d)
+    (out / "report.json").write_text(json.dumps(doc, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+    d.residuals().to_csv(out / "residuals.csv", float_format="%.5g")
+    plot_residual_map(d, out / "residual_map.png")
+    plot_fit(d, out / "fit.png")
+    (out / "report.md").write_text(markdown(d, doc, command), encoding="utf-8")
+    return doc
+
+
+def markdown(d, doc: dict[str, Any], command: str) -> str:
+    lines = ["# Missing-physics diagnosis", ""]
+    if command:
+        lines += ["```", command, "```", ""]
+    lines += ["## Verdict", "", doc["verdict"], "",
+              f"Baseline network `{d.baseline_network.name}`; {d.screened} candidates (mechanism × place × shape) "
+              f"screened; final block from {d.time_s[~d.fit_rows][0] / 3600:.2f} h to {d.time_s[-1] / 3600:.2f} h "
+              f"kept out of screening, selection and fitting; {d.seconds:.0f} s.", "",
+              "## Drift error (RMSE, µm)", "", "| channel | baseline fit | baseline held-out | augmented fit | "
+              "augmented held-out |", "|---|---:|---:|---:|---:|"]
+    for c in doc["baseline"]["rmse_um"]:
+        lines.append(f"| {c} | {doc['baseline']['rmse_um'][c]:.3f} | {doc['baseline']['heldout_rmse_um'][c]:.3f} | "
+                     f"{doc['augmented']['rmse_um'][c]:.3f} | {doc['augmented']['heldout_rmse_um'][c]:.3f} |")
+    lines += ["", "## Findings", ""]
+    if not d.findings:
+        lines.append("None.")
+    for f in d.findings:
+        lines += [f"### {f['mechanism']} (confidence {f['confidence']:.2f})", "", f["evidence"], "",
+                  "| parameter | value | interval |", "|---|---:|---|"]
+        for k, v in f["parameters"].items():
+            ci = f["ci"].get(k)
+            lines.append(f"| {k} | {v:.4g} | {'—' if ci is None else f'[{ci[0]:.4g}, {ci[1]:.4g}]'} |")
+        lines += ["", "Where: " + "; ".join(f"{w['channel']} in {name}" for w, name in zip(f["where"], f["_windows"]))
+                  if f["where"] else "Where: spread over the whole recording.", ""]
+    lines += ["## Candidates fitted by re-simulation", "",
+              "Share of the baseline's (balanced) misfit explained by the linearised screening and by the "
+              "re-simulated fit; LR: drop of the noise-weighted sum of squares.", "",
+              "| round | candidate | screening share | fitted share | LR | p | held-out blocks improved |",
+              "|---:|---|---:|---:|---:|---:|---:|"]
+    lines += [f"| {t['round']} | {t['candidate']} | {t['screen_share']:.1%} | {t['fit_share']:.1%} | {t['lr']:.3g} | "
+              f"{t['p_value']:.2g} | {t['blocks_improved']:.0%} |" for t in d.trace]
+    lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
+    lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]
+    lines += ["", "Files: `report.json`, `residuals.csv` (measured − prediction per channel), `residual_map.png`, "
+              "`fit.png`.", ""]
+    return "\n".join(lines)
+
+
+def _bins(d, values: np.ndarray, width_s: float = 1800.0) -> tuple[np.ndarray, np.ndarray]:
+    edges = np.arange(d.time_s[0], d.time_s[-1] + width_s, width_s)
+    idx = np.clip(np.searchsorted(edges, d.time_s, side="right") - 1, 0, len(edges) - 2)
+    counts = np.maximum(np.bincount(idx, minlength=len(edges) - 1), 1)
+    grid = np.stack([np.sqrt(np.bincount(idx, v ** 2, minlength=len(edges) - 1) / counts) for v in values.T])
+    return edges, grid
+
+
+def plot_residual_map(d, path: Path) -> Path:
+    """RMS residual per channel and 30-min bin, in units of the channel's own baseline RMS, before and after."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    before, after = d.measured - d.baseline, d.measured - d.augmented
+    scale = np.maximum(np.sqrt(np.mean(before ** 2, axis=0)), 1e-12)
+    edges, g0 = _bins(d, before / scale)
+    _, g1 = _bins(d, after / scale)
+    vmax = float(max(g0.max(), 1e-9))
+    tall = max(2, len(d.channels) / 3)
+    fig, axes = plt.subplots(3, 1, figsize=(12, 2 + 0.5 * len(d.channels)), sharex=True,
+                             gridspec_kw={"height_ratios": [1, tall, tall]})
+    axes[0].plot(d.time_s / 3600, d.speed_rpm, color="k", lw=0.8)
+    axes[0].set_ylabel("rpm")
+    cut = d.time_s[~d.fit_rows][0] / 3600 if (~d.fit_rows).any() else None
+    for ax, grid, title in ((axes[1], g0, "baseline"), (axes[2], g1, "with the findings")):
+        mesh = ax.pcolormesh(edges / 3600, np.arange(len(d.channels) + 1), grid, cmap="magma_r", vmin=0, vmax=vmax)
+        ax.set_yticks(np.arange(len(d.channels)) + 0.5, d.channels, fontsize=6)
+        ax.invert_yaxis()
+        ax.set_title(f"residual RMS / baseline RMS per channel: {title}", fontsize=9)
+        if cut is not None:
+            ax.axvline(cut, color="tab:blue", lw=1.2, ls="--")
+    fig.colorbar(mesh, ax=list(axes), label="relative residual")
+    axes[-1].set_xlabel("time (h); dashed: start of the held-out final block")
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_fit(d, path: Path) -> Path:
+    """Each displacement channel: measured, baseline and augmented prediction."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    disp = [j for j, k in enumerate(d.kinds) if k == "displacement"]
+    fig, axes = plt.subplots(len(disp), 1, figsize=(11, 2.2 * len(disp) + 0.6), sharex=True, squeeze=False)
+    h = d.time_s / 3600
+    final = ~d.fit_rows
+    for ax, j in zip(axes[:, 0], disp):
+        c = d.channels[j]
+        rb = np.sqrt(np.mean((d.measured[final, j] - d.baseline[final, j]) ** 2))
+        ra = np.sqrt(np.mean((d.measured[final, j] - d.augmented[final, j]) ** 2))
+        ax.plot(h, d.measured[:, j], color="k", lw=0.7, label="measured")
+        ax.plot(h, d.baseline[:, j], color="tab:blue", lw=0.8, ls="--", label=f"baseline (held-out RMSE {rb:.3g} µm)")
+        ax.plot(h, d.augmented[:, j], color="tab:red", lw=0.9, label=f"with findings (held-out RMSE {ra:.3g} µm)")
+        if final.any():
+            ax.axvspan(h[final][0], h[-1], color="0.9", zorder=0)
+        ax.set_ylabel(f"{c} (µm)", fontsize=8)
+        ax.legend(fontsize=7, loc="upper left", ncol=3, frameon=False)
+    axes[-1, 0].set_xlabel("time (h); grey: held-out final block")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def log_to_mlflow(d, doc: dict[str, Any], out: Path, tracking_uri: str, run_name: str, seed: int) -> str:
+    """Log the RMSEs, findings and every file in ``out`` to an MLflow run; returns its id."""
+    import mlflow
+
+    from thermodrift.core import tracking
+
+    tracking.setup(tracking_uri, "diagnose")
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"kind": "diagnosis", "network": d.baseline_network.name,
+                         "findings": ",".join(f["mechanism"] for f in d.findings) or "none"})
+        mlflow.log_params({"seed": seed, "screened": d.screened, "network": d.baseline_network.name})
+        metrics = {"seconds": d.seconds, "findings": float(len(d.findings))}
+        for part in ("baseline", "augmented"):
+            for key in ("rmse_um", "heldout_rmse_um"):
+                for c, v in doc[part][key].items():
+                    metrics[tracking.metric_key(f"{part}_{key}", c)] = v
+        for f in d.findings:
+            metrics[f"confidence/{f['mechanism']}"] = f["confidence"]
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out))
+        return run.info.run_id

@@ -1,0 +1,346 @@
+"""Screening: every registered mechanism at every place it can act, scored by how well its linearised response
+explains the calibrated baseline's residual.
+
+For a candidate (mechanism, place, shape) the response R is the change of every sensor reading when the
+mechanism is added to the baseline network at its default (or shape) parameters, by re-simulation. The model
+``residual ≈ β_g R`` has one amplitude for all temperature channels and one per displacement channel (their
+sensitivities are linear anyway). Both sides are divided by each channel's noise σ and have the baseline's own
+linear parameters projected out (offset per temperature channel; sensitivities, tilts, centrifugal term and
+offset per displacement channel), so a candidate only scores with what the baseline cannot already absorb.
+
+Scores on the screening rows: ΔSSE in units of each channel's noise variance, which is the likelihood-ratio
+statistic of the amplitudes when the noise σ is known (χ² with one degree of freedom per amplitude when
+nothing is missing); a balanced ΔSSE for ranking (temperature channels together weigh as much as displacement
+channels together); and a condition-blocked cross-validated gain (amplitudes fitted without a block, scored
+on it). A mechanism acting at several places
+at once (cutting heat into the tool and the spindle) is a greedy union of its best places (:func:`best_compound`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from thermodrift.core.errors import InputError
+from thermodrift.core.physics.calibration import predict
+from thermodrift.core.physics.network import Network, TemperatureSensor
+
+# Shapes screened besides the defaults for the built-in mechanisms whose response shape depends on a parameter.
+SHAPES: dict[str, list[dict[str, float]]] = {
+    "slow_structural_mode": [{"tau_h": 2.0}, {"tau_h": 6.0}, {"tau_h": 16.0}],
+    "bearing_heat_law": [{"exponent_shift": 0.5, "viscosity_coeff_per_K": 0.0},
+                         {"exponent_shift": -0.5, "viscosity_coeff_per_K": 0.0},
+                         {"exponent_shift": 0.0, "viscosity_coeff_per_K": 0.01}],
+    "speed_dependent_convection": [{"exponent": 0.7}],
+}
+# Relative singular-value cut of the linear refits (offsets, sensitivities): an auto network's many node
+# temperatures are nearly collinear, and keeping directions below 1e-6 of the largest made the refitted drift
+# extrapolate to the unseen block 2-3 times worse on FL_THERMAL.
+LINEAR_RCOND = 1e-6
+# Mechanisms whose parameters may take either sign: a negative fitted amplitude is still physical.
+_SIGNED = {"bearing_heat_law", "centrifugal_growth", "slow_structural_mode", "thermal_tilt", "contact_resistance"}
+
+
+@dataclass
+class Baseline:
+    """A network's readings over the recording and what its linear parameters can absorb.
+
+    ``raw`` are the network's own noise-free readings; ``readings`` the same with every channel's linear
+    parameters (offset; sensitivities, tilts, centrifugal term and offset) solved again by least squares on the
+    fitting rows at full resolution, so baseline and augmented networks are compared on equal terms.
+    """
+
+    network: Network
+    raw: np.ndarray               # (samples, channels)
+    readings: np.ndarray          # (samples, channels)
+    nuisance: list[np.ndarray]    # per channel: (samples, q) regressors solved linearly
+
+
+@dataclass
+class Candidate:
+    mechanism: str
+    options: dict[str, Any]
+    shape: dict[str, float]
+    network: Network
+    free: list
+    response: np.ndarray          # (samples, channels) readings change at the candidate's start values
+    signature: str = ""
+    label: str = ""
+    factory: Any = None
+    # scores (screening rows)
+    dsse: float = 0.0
+    lr: float = 0.0
+    dof: int = 0
+    p_value: float = 1.0
+    cv_gain: float = 0.0
+    cv_wins: float = 0.0
+    beta: dict[str, float] = field(default_factory=dict)
+    dsse_bal: float = 0.0
+    block_stats: Any = None       # (blocks, groups, 3): <R,r>, <R,R>, <r,r> per block and group
+    projected: Any = None         # per channel, the response projected and weighted like the residual
+    gram: Any = None              # (blocks, groups, k+1, k+1) Gram matrices of [responses, residual]
+    parts: list = field(default_factory=list)       # single-place candidates of a several-place candidate
+    part_betas: list = field(default_factory=list)  # their temperature amplitudes
+
+
+def baseline_of(network: Network, scenario, channels: list[str], measured: np.ndarray,
+                rows: np.ndarray) -> Baseline:
+    """Readings of ``network`` over ``scenario`` for ``channels``, refitted linearly on ``rows``."""
+    readings, X = predict(network, scenario)
+    idx = {n: i for i, n in enumerate(network.node_names)}
+    n_ref = network.reference_speed_rpm
+    ratio2 = (scenario.frame["speed_rpm"].to_numpy() / n_ref) ** 2
+    nuisance = []
+    for ch in channels:
+        sensor = next(s for s in network.sensors if s.name == ch)
+        ones = np.ones((len(X), 1))
+        if isinstance(sensor, TemperatureSensor):
+            nuisance.append(ones)
+            continue
+        out = network.output(sensor.output)
+        cols = [X[:, idx[n]] - X[0, idx[n]] for n in (out.sensitivity_um_K or network.node_names)]
+        cols += [(X[:, idx[h]] - X[0, idx[h]]) - (X[:, idx[c]] - X[0, idx[c]]) for h, c, _ in out.tilt_pairs()]
+        if out.centrifugal_um:
+            cols.append(ratio2)
+        nuisance.append(np.column_stack(cols + [ones[:, 0]]))
+    raw = readings[channels].to_numpy()
+    fitted = raw.copy()
+    for c, Z in enumerate(nuisance):
+        if Z.shape[1] == 1:  # a temperature channel: its offset
+            fitted[:, c] += float(np.mean(measured[rows, c] - raw[rows, c]))
+            continue
+        scale = np.maximum(np.abs(Z[rows]).max(axis=0), 1e-12)
+        coef = np.linalg.lstsq(Z[rows] / scale, measured[rows, c], rcond=LINEAR_RCOND)[0]
+        fitted[:, c] = (Z / scale) @ coef
+    return Baseline(network, raw, fitted, nuisance)
+
+
+def candidates(registry, base: Baseline, scenario, channels: list[str], recording,
+               only: list[str] | None = None) -> tuple[list[Candidate], list[dict]]:
+    """Every (mechanism, place, shape) that the recording can drive and that changes some reading; and the
+    mechanisms rejected with their reason (missing or constant driver, no place in the network, no effect)."""
+    out, rejected = [], []
+    for mid in registry.names("mechanism"):
+        if only is not None and mid not in only:
+            continue
+        cls = registry.get("mechanism", mid).factory
+        reason = cls.missing_drivers(recording)
+        if reason:
+            rejected.append({"mechanism": mid, "reason": f"skipped: {reason}"})
+            continue
+        found, errors = 0, []
+        for options in cls.places(base.network):
+            for shape in SHAPES.get(mid, [{}]):
+                try:
+                    mech = cls(**options)
+                    net, free = mech.declare(base.network, **shape)
+                    readings = predict(net, scenario)[0][channels].to_numpy()
+                except InputError as exc:
+                    errors.append(str(exc))
+                    continue
+                response = readings - base.raw
+                if not np.isfinite(response).all() or np.abs(response).max() < 1e-9:
+                    continue
+                place = _place_text(options)
+                shape_text = ", ".join(f"{k}={v:g}" for k, v in shape.items())
+                out.append(Candidate(mid, options, shape, net, free, response, cls.signature,
+                                     f"{mid} at {place}" + (f" ({shape_text})" if shape else ""), cls))
+                found += 1
+        if not found:
+            why = errors[0] if errors else "no place in this network where it changes any reading"
+            rejected.append({"mechanism": mid, "reason": f"skipped: {why}"})
+    return out, rejected
+
+
+def _basis(Z: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the columns of Z on ``rows`` (numerically dependent columns dropped)."""
+    A = Z[rows]
+    A = A / np.maximum(np.abs(A).max(axis=0), 1e-12)
+    U, sv, _ = np.linalg.svd(A, full_matrices=False)
+    return U[:, sv > LINEAR_RCOND * sv[0]] if len(sv) and sv[0] > 0 else U[:, :0]
+
+
+def _project(Q: np.ndarray, rows: np.ndarray, vec: np.ndarray) -> np.ndarray:
+    """``vec`` on ``rows`` minus its projection on the orthonormal columns Q."""
+    v = vec[rows]
+    return v - Q @ (Q.T @ v)
+
+
+@dataclass
+class Screen:
+    """Projected, weighted residuals of the baseline on the screening rows, grouped for the amplitude model.
+
+    ``weights`` balance the groups for ranking: the temperature channels together count as much as the
+    displacement channels together (otherwise 20 temperature channels outvote one drift channel).
+    """
+
+    rows: np.ndarray
+    blocks: np.ndarray
+    groups: list[list[int]]          # channel indices per amplitude group (temperatures; each displacement)
+    group_names: list[str]
+    resid: list[np.ndarray]          # per channel, projected and weighted
+    sse0: float
+    sse0_bal: float
+    weights: np.ndarray              # per group
+    base: Baseline
+    sigma: np.ndarray
+    bases: list[np.ndarray]          # per channel, orthonormal basis of the baseline's linear regressors
+
+    @property
+    def temps_first(self) -> bool:
+        return bool(self.group_names) and self.group_names[0] == "temperatures"
+
+    def stack(self, g: int, vectors: list[np.ndarray]) -> np.ndarray:
+        return np.concatenate([vectors[c] for c in self.groups[g]])
+
+
+def prepare(base: Baseline, measured: np.ndarray, sigma: np.ndarray, kinds: list[str], channels: list[str],
+            rows: np.ndarray, blocks: np.ndarray) -> Screen:
+    bases = [_basis(base.nuisance[c], rows) for c in range(len(channels))]
+    resid = [_project(bases[c], rows, (measured[:, c] - base.readings[:, c]) / sigma[c])
+             for c in range(len(channels))]
+    temps = [i for i, k in enumerate(kinds) if k == "temperature"]
+    disps = [i for i, k in enumerate(kinds) if k == "displacement"]
+    groups = ([temps] if temps else []) + [[i] for i in disps]
+    names = (["temperatures"] if temps else []) + [channels[i] for i in disps]
+    share = 0.5 if temps and disps else 1.0
+    weights = np.array(([share / len(temps)] if temps else []) + [share / len(disps)] * len(disps))
+    sse0 = float(sum(r @ r for r in resid))
+    sse0_bal = float(sum(w * sum(resid[c] @ resid[c] for c in m) for w, m in zip(weights, groups)))
+    return Screen(rows, blocks, groups, names, resid, sse0, sse0_bal, weights, base, sigma, bases)
+
+
+def _nonneg_first(screen: Screen, cand: Candidate) -> bool:
+    return screen.temps_first and cand.mechanism not in _SIGNED
+
+
+def score(screen: Screen, cand: Candidate, n_tests: int) -> Candidate:
+    """Fill the candidate's screening scores (see the module docstring)."""
+    nb = int(screen.blocks.max()) + 1
+    stats_ = np.zeros((nb, len(screen.groups), 3))
+    R = [_project(screen.bases[c], screen.rows, cand.response[:, c] / screen.sigma[c])
+         for c in range(len(screen.resid))]
+    cand.projected = R
+    for g, members in enumerate(screen.groups):
+        for c in members:
+            for k, v in enumerate((R[c] * screen.resid[c], R[c] * R[c], screen.resid[c] ** 2)):
+                stats_[:, g, k] += np.bincount(screen.blocks, v, minlength=nb)
+    cand.block_stats = stats_
+    tot = stats_.sum(axis=0)
+    beta = _beta(tot, _nonneg_first(screen, cand))
+    gain = 2 * beta * tot[:, 0] - beta ** 2 * tot[:, 1]
+    cand.beta = {n: float(b) for n, b in zip(screen.group_names, beta)}
+    cand.dsse = float(gain.sum())
+    cand.dsse_bal = float(screen.weights @ gain)
+    cand.dof = max(int((tot[:, 1] > 1e-12).sum()), 1)
+    cand.lr = max(cand.dsse, 0.0)
+    cand.p_value = float(stats.chi2.sf(cand.lr, cand.dof))
+    cv, wins = 0.0, 0
+    for b in range(nb):
+        bb = _beta(tot - stats_[b], _nonneg_first(screen, cand))
+        g = float(screen.weights @ (2 * bb * stats_[b, :, 0] - bb ** 2 * stats_[b, :, 1]))
+        cv += g
+        wins += g > 0
+    cand.cv_gain, cand.cv_wins = cv, wins / nb
+    return cand
+
+
+def _beta(tot: np.ndarray, nonneg_first: bool) -> np.ndarray:
+    beta = np.where(tot[..., 1] > 1e-12, tot[..., 0] / np.maximum(tot[..., 1], 1e-300), 0.0)
+    if nonneg_first:
+        beta[..., 0] = np.maximum(beta[..., 0], 0.0)  # a missing heat or conductance cannot enter negatively
+    return beta
+
+
+def _gram(screen: Screen, parts: list[Candidate]) -> np.ndarray:
+    """Per block and group the Gram matrix of [responses…, residual]: (blocks, groups, k+1, k+1)."""
+    nb = int(screen.blocks.max()) + 1
+    k = len(parts)
+    out = np.zeros((nb, len(screen.groups), k + 1, k + 1))
+    for g in range(len(screen.groups)):
+        for c in screen.groups[g]:
+            cols = [p.projected[c] for p in parts] + [screen.resid[c]]
+            for i in range(k + 1):
+                for j in range(i, k + 1):
+                    v = np.bincount(screen.blocks, cols[i] * cols[j], minlength=nb)
+                    out[:, g, i, j] += v
+                    if i != j:
+                        out[:, g, j, i] += v
+    return out
+
+
+def _solve(G: np.ndarray, nonneg: bool) -> np.ndarray:
+    """Amplitudes minimising ||A β − r||² from the Gram matrix [[AᵀA, Aᵀr], [rᵀA, rᵀr]]."""
+    from scipy.optimize import nnls
+
+    k = G.shape[0] - 1
+    AtA, Atr = G[:k, :k], G[:k, k]
+    if not nonneg:
+        return np.linalg.lstsq(AtA, Atr, rcond=1e-12)[0]
+    # ||Aβ − r||² = ||Hβ − H⁻¹Aᵀr||² + const with AᵀA = H² (H symmetric): a k×k non-negative problem
+    w, V = np.linalg.eigh(AtA)
+    w = np.maximum(w, 1e-12 * max(w.max(), 1e-300))
+    half = (V * np.sqrt(w)) @ V.T
+    return nnls(half, np.linalg.solve(half, Atr))[0]
+
+
+def _gain(G: np.ndarray, beta: np.ndarray) -> float:
+    k = len(beta)
+    return float(2 * beta @ G[:k, k] - beta @ G[:k, :k] @ beta)
+
+
+def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
+    """One candidate of a mechanism acting at several places at once (amplitudes fitted jointly)."""
+    first = parts[0]
+    nonneg = _nonneg_first(screen, first)
+    gram = _gram(screen, parts)
+    tot = gram.sum(axis=0)
+    betas = [_solve(tot[g], nonneg and g == 0) for g in range(len(screen.groups))]
+    gains = np.array([_gain(tot[g], betas[g]) for g in range(len(screen.groups))])
+    nb = gram.shape[0]
+    cv, wins = 0.0, 0
+    for blk in range(nb):
+        rest = tot - gram[blk]
+        g_sum = sum(screen.weights[g] * _gain(gram[blk, g], _solve(rest[g], nonneg and g == 0))
+                    for g in range(len(screen.groups)))
+        cv += g_sum
+        wins += g_sum > 0
+    dof = sum(p.dof for p in parts)
+    dsse = float(gains.sum())
+    out = Candidate(first.mechanism, first.options, first.shape, first.network, first.free,
+                    sum(p.response for p in parts), first.signature,
+                    f"{first.mechanism} at {' + '.join(_place_text(p.options) for p in parts)}", first.factory)
+    out.parts = parts
+    out.part_betas = [float(betas[0][i]) if screen.temps_first else 0.0 for i in range(len(parts))]
+    out.dsse, out.dsse_bal, out.dof = dsse, float(screen.weights @ gains), dof
+    out.lr, out.p_value = max(dsse, 0.0), float(stats.chi2.sf(max(dsse, 0.0), dof))
+    out.cv_gain, out.cv_wins = cv, wins / nb
+    out.beta = first.beta
+    out.block_stats, out.projected = first.block_stats, first.projected
+    out.gram = gram
+    return out
+
+
+def _place_text(options: dict[str, Any]) -> str:
+    return ", ".join(f"{k}={v if isinstance(v, str) else '+'.join(map(str, v))}" for k, v in options.items()) \
+        or "default place"
+
+
+def best_compound(screen: Screen, singles: list[Candidate], max_places: int = 3, gain: float = 1.1) -> Candidate:
+    """Greedily add the mechanism's next-best places while the joint balanced gain grows by ``gain``×."""
+    ranked = sorted(singles, key=lambda c: -c.dsse_bal)
+    current = ranked[0]
+    chosen = [ranked[0]]
+    for nxt in ranked[1:]:
+        if len(chosen) >= max_places:
+            break
+        if nxt.shape != chosen[0].shape or nxt.options == chosen[0].options:
+            continue
+        trial = combine(screen, chosen + [nxt])
+        if trial.dsse_bal > gain * current.dsse_bal and all(b >= 0 for b in getattr(trial, "part_betas", [])):
+            chosen.append(nxt)
+            current = trial
+    return current

@@ -1,0 +1,84 @@
+"""SIGKILL a real `thermodrift run` mid-trial, then run the same command: nothing is left RUNNING.
+
+The resume starts straight after the kill, inside Optuna's heartbeat grace period; the killed trial's owner
+(host, pid, process start time) tells that it is dead. Results are read from the SQLite files afterwards.
+"""
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import mlflow
+import pytest
+
+from thermodrift.testing.data import tiny_recording
+
+EXE = [sys.executable, "-m", "thermodrift.core.cli", "run"]
+ARGS = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
+        "progress=false", "model=bp", "model.params.trainer.epochs=30", "optimizer=random"]
+
+
+def _states(db: Path) -> dict[str, int]:
+    """Trials by state; ``IN_OBJECTIVE``: RUNNING trials whose objective has begun (their owner is recorded)."""
+    try:
+        with sqlite3.connect(db, timeout=1) as con:
+            out = dict(con.execute("SELECT state, COUNT(*) FROM trials GROUP BY state").fetchall())
+            out["IN_OBJECTIVE"] = con.execute(
+                "SELECT COUNT(*) FROM trials t JOIN trial_user_attributes a USING (trial_id) "
+                "WHERE t.state = 'RUNNING' AND a.key = 'worker'").fetchone()[0]
+            return out
+    except sqlite3.OperationalError:
+        return {}
+
+
+def _run_states(cwd: Path) -> list[tuple[str, dict]]:
+    mlflow.set_tracking_uri(f"sqlite:///{cwd / 'mlflow.db'}")
+    return [(r.info.status, r.data.tags) for r in mlflow.search_runs(experiment_names=["thermodrift"],
+                                                                      output_format="list")]
+
+
+def _kill_mid_trial(cwd: Path, n_trials: int) -> None:
+    """Start the job and SIGKILL its process group once a trial completed and the next one is RUNNING."""
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    env.pop("THERMODRIFT_SWEEP_ID", None)
+    proc = subprocess.Popen([*EXE, *ARGS, f"n_trials={n_trials}"], cwd=cwd, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    db, deadline = cwd / "thermodrift.optuna.db", time.time() + 240
+    while time.time() < deadline and proc.poll() is None:
+        states = _states(db)
+        if states.get("COMPLETE", 0) >= 1 and states.get("IN_OBJECTIVE", 0) == 1:
+            break
+        time.sleep(0.02)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    states = _states(db)
+    assert states.get("RUNNING") == 1 and states.get("COMPLETE", 0) < n_trials, f"kill missed a trial: {states}"
+
+
+@pytest.mark.parametrize("resume_trials", [3, 1], ids=["trials_left", "budget_already_met"])
+def test_resume_after_sigkill_leaves_nothing_running(tmp_path, resume_trials):
+    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
+    _kill_mid_trial(tmp_path, 3)
+    (killed_run,) = [tags for status, tags in _run_states(tmp_path) if status == "RUNNING"]
+    complete_before = _states(tmp_path / "thermodrift.optuna.db")["COMPLETE"]
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    env.pop("THERMODRIFT_SWEEP_ID", None)
+    out = subprocess.run([*EXE, *ARGS, f"n_trials={resume_trials}"], cwd=tmp_path, env=env, capture_output=True,
+                         text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    states = _states(tmp_path / "thermodrift.optuna.db")
+    assert states.get("RUNNING", 0) == 0 and states["FAIL"] == 1
+    assert states["COMPLETE"] == max(resume_trials, complete_before)  # the killed trial took no budget
+    runs = _run_states(tmp_path)
+    assert [status for status, _ in runs].count("RUNNING") == 0
+    (killed,) = [tags for status, tags in runs if status == "KILLED"]
+    (resumed,) = [tags for status, tags in runs if status == "FINISHED"]
+    assert killed["worker"] == killed_run["worker"] and "died" in killed["error"]
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    killed_id = [r.info.run_id for r in mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
+                 if r.info.status == "KILLED"][0]
+    assert resumed["resumes"] == killed_id
