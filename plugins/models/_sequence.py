@@ -76,7 +76,7 @@ class SequenceModel(TorchThermalModel):
             module.load_state_dict(self.state_dict_)
             cached = self._network_cache = (self.state_dict_, module.eval())
         return predict(cached[1], self._inputs(X), self.x_scaler_, self.y_scaler_,
-                       resolve_device(self.trainer_config().device))
+                       resolve_device(self.trainer_settings().device))
 
     def __getstate__(self):
         state = super().__getstate__()
