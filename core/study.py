@@ -284,9 +284,9 @@ class Job:
             started = time.perf_counter()
             m = self._model(name, params).fit(inputs(name).iloc[fold.train], y_all.iloc[fold.train])
             fit_s = time.perf_counter() - started
+            if who == "model":  # timed on training rows: the held-out rows are touched once, by the prediction below
+                model, cost = m, efficiency.measure(m, inputs(name), fold.train, fit_s)
             preds[who] = predict_rows(m, inputs(name), fold.test)
-            if who == "model":
-                model, cost = m, efficiency.measure(m, inputs(name), fold.test, fit_s)
         y_test = y_all.iloc[fold.test]
         return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
                           {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
