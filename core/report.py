@@ -9,6 +9,8 @@ with its defaults on the same rows. The studies' tables are views of it:
 * :func:`s2_table` — S2's analogue: mean relative error % and residual variance (µm²) per held-out block
   (S2's "inside the training range" and "beyond it" are the blocks of its paper protocols).
 * :func:`grid_summary` — the held-out RMSE, MAE and max |e| of every job's model beside its baselines.
+* :func:`runs_table` / :func:`format_table` — the table a grid prints at its end: one line per job run with its
+  components, held-out RMSE per target (µm) with the MLR and persistence baselines beside it, and wall time.
 
 :func:`write` saves each as Markdown and CSV; :func:`log_to_parent` also attaches them to the parent run.
 """
@@ -157,3 +159,47 @@ def log_to_parent(client, parent_id: str, folder: str | os.PathLike | None = Non
         for path in paths.values():
             client.log_artifact(parent_id, str(path), artifact_path="report")
     return {}
+
+
+COMPONENTS = ("dataset", "selector", "model", "optimizer", "split")
+BASELINES = ("mlr", "persistence")
+
+
+def runs_table(runs) -> pd.DataFrame:
+    """One row per MLflow run (``mlflow.entities.Run``) in the given order. Columns: the components (tags; the
+    dataset is the recording file's name when there is one),
+    ``rmse <target>``, then ``mlr <target>`` and ``persistence <target>`` per target channel (µm, held-out,
+    mean over folds), ``rmse`` (mean over targets), ``wall_s`` and ``status``. Failed jobs keep their row."""
+    rows = []
+    for run in runs:
+        tags, metrics = run.data.tags, run.data.metrics
+        row = {c: tags.get(c, "") for c in COMPONENTS}
+        row["dataset"] = tags.get("recording") or row["dataset"]  # a recording file's name says more
+        for target in _targets(tags):
+            row[f"rmse {target}"] = metrics.get(f"test/{target}/rmse")
+            for base in BASELINES:
+                row[f"{base} {target}"] = metrics.get(f"baseline/{base}/test/{target}/rmse")
+        row["rmse"] = metrics.get("test/rmse")
+        end = run.info.end_time or run.info.start_time
+        row["wall_s"] = (end - run.info.start_time) / 1000.0 if run.info.start_time else None
+        row["status"] = run.info.status
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def format_table(table: pd.DataFrame) -> str:
+    """The table as aligned text (µm with 3 decimals, wall time in whole s; a missing value is ``-``)."""
+    if table.empty:
+        return "(no jobs)"
+    out = table.copy()
+    for col in out.columns:
+        if col == "wall_s":
+            out[col] = out[col].map(lambda v: "-" if pd.isna(v) else f"{v:.0f}")
+        elif out[col].dtype.kind == "f" or col.startswith(("rmse", *BASELINES)):
+            out[col] = out[col].map(lambda v: "-" if v is None or pd.isna(v) else f"{float(v):.3f}")
+    return out.to_string(index=False)
+
+
+def _targets(tags: dict) -> list[str]:
+    """Target channel names as logged (MLflow-safe) in the ``targets`` tag, comma separated."""
+    return [t for t in tags.get("targets", "").split(",") if t]

@@ -279,7 +279,7 @@ class SweepRun(Callback):
     """Hydra callback: opens the sweep's parent MLflow run before the jobs start and closes it after.
 
     The parent's id reaches the jobs (also joblib worker processes) through ``THERMODRIFT_PARENT_RUN_ID``.
-    At the end the terminal gets one table of every job (:mod:`thermodrift.core.report_table`) and the parent
+    At the end the terminal gets one table of every job (:func:`thermodrift.core.report.runs_table`) and the parent
     run's id; the parent gets a ``grid.csv`` of every child's metrics and the metrics, params and ``best_run_id``
     of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores)
     among the compensation models (a job tagged ``reference``, such as persistence, only when all are).
@@ -293,7 +293,7 @@ class SweepRun(Callback):
         os.environ[PARENT_ENV] = run.info.run_id
 
     def on_multirun_end(self, config, **kwargs) -> None:
-        from thermodrift.core import report_table
+        from thermodrift.core import report
 
         parent = os.environ.pop(PARENT_ENV, None)
         if not parent:
@@ -309,8 +309,6 @@ class SweepRun(Callback):
                 path = Path(tmp) / "grid.csv"
                 pd.DataFrame(rows).to_csv(path, index=False)
                 client.log_artifact(parent, str(path))
-            from thermodrift.core import report
-
             try:  # the studies' tables and the grid summary, under report/ on the parent run
                 report.log_to_parent(client, parent)
             except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
@@ -331,7 +329,7 @@ class SweepRun(Callback):
         failed = sum(c.info.status != "FINISHED" for c in children)
         print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE (µm) "
               "per target, the baselines beside it:\n"
-              + report_table.format_table(report_table.runs_table(children))
+              + report.format_table(report.runs_table(children))
               + (f"\nbest job by inner validation RMSE: {best.info.run_name} ({best.info.run_id})" if best else "")
               + f"\nparent MLflow run {parent} at {config.tracking.uri or DEFAULT_URI}", flush=True)
 
