@@ -154,7 +154,7 @@ def check_history_consistent(factory: Factory, params: dict) -> None:
         f"predict(X[{HISTORY_CUT}:], history=X[:{HISTORY_CUT}]) differs from predict(X)[{HISTORY_CUT}:] by up to "
         f"{gap:.3g} µm; a prediction must depend only on the rows before it (history) and the rows themselves")
     stream = model.streamer(Xm.iloc[:HISTORY_CUT])
-    rows = Xm.iloc[HISTORY_CUT:HISTORY_CUT + STREAM_ROWS].to_dict("records")
+    rows = [row for _, row in Xm.iloc[HISTORY_CUT:HISTORY_CUT + STREAM_ROWS].iterrows()]  # Series named by time (s)
     streamed = np.array([np.asarray(stream.update(r), dtype=float).ravel() for r in rows])
     gap = float(np.max(np.abs(streamed - whole[HISTORY_CUT:HISTORY_CUT + STREAM_ROWS])))
     assert gap <= HISTORY_TOLERANCE_UM, (

@@ -173,7 +173,11 @@ class _LPTNStreamer(Streamer):
         temps = v[:n]
         speed = round(max(float(v[n]), 0.0) / 10.0) * 10.0
         ambient = float(v[n + 1]) if m.ambient_ else cal.AUTO_AMBIENT_DEGC
-        x = self.obs.update(float(row.name), speed, ambient, ambient, temps)
+        time_s = getattr(row, "name", None)
+        if not isinstance(time_s, (int, float, np.number)):
+            raise ValueError("a physics model steps its state by time: pass each row as a pandas Series named by "
+                             "its time in s (e.g. frame.loc[t])")
+        x = self.obs.update(float(time_s), speed, ambient, ambient, temps)
         return m._correct(temps, ambient, (x - m.reference_) @ m.coef_ + m.intercept_)
 
 
