@@ -1,5 +1,7 @@
 """Fixtures shared by several test modules."""
 
+import os
+
 import pytest
 
 
@@ -12,3 +14,14 @@ def one_torch_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(threads)
+
+
+@pytest.fixture()
+def postgres_url() -> str:
+    """The PostgreSQL server that ``bash .ci/run`` starts (.ci/postgres.sh); required there, optional elsewhere."""
+    url = os.environ.get("THERMODRIFT_TEST_POSTGRES")
+    if url:
+        return url
+    if os.environ.get("THERMODRIFT_REQUIRE_POSTGRES"):
+        pytest.fail("THERMODRIFT_TEST_POSTGRES is not set although .ci/run starts a PostgreSQL server")
+    pytest.skip("no PostgreSQL server: run `bash .ci/run`, or set THERMODRIFT_TEST_POSTGRES to a SQLAlchemy URL")

@@ -56,18 +56,9 @@ def test_four_runs_started_together_on_a_new_sqlite_study_all_succeed(tmp_path):
     assert sorted(r.info.status for r in runs) == ["FINISHED"] * 4
 
 
-def postgres_url() -> str:
-    """The PostgreSQL server that ``bash .ci/run`` starts (.ci/postgres.sh); required there, optional elsewhere."""
-    url = os.environ.get("THERMODRIFT_TEST_POSTGRES")
-    if url:
-        return url
-    if os.environ.get("THERMODRIFT_REQUIRE_POSTGRES"):
-        pytest.fail("THERMODRIFT_TEST_POSTGRES is not set although .ci/run starts a PostgreSQL server")
-    pytest.skip("no PostgreSQL server: run `bash .ci/run`, or set THERMODRIFT_TEST_POSTGRES to a SQLAlchemy URL")
 
-
-def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tmp_path):
-    storage = postgres_url()
+def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tmp_path, postgres_url):
+    storage = postgres_url
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     args = ["model=bp", "model.params.trainer.epochs=20", "n_trials=16", "optimizer=random", f"optuna.storage={storage}",

@@ -68,20 +68,12 @@ WORKER = textwrap.dedent("""
 """)
 
 
-def postgres_url() -> str:
-    """The PostgreSQL server that ``bash .ci/run`` starts (.ci/postgres.sh); required there, optional elsewhere."""
-    url = os.environ.get("THERMODRIFT_TEST_POSTGRES")
-    if url:
-        return url
-    if os.environ.get("THERMODRIFT_REQUIRE_POSTGRES"):
-        pytest.fail("THERMODRIFT_TEST_POSTGRES is not set although .ci/run starts a PostgreSQL server")
-    pytest.skip("no PostgreSQL server: run `bash .ci/run`, or set THERMODRIFT_TEST_POSTGRES to a SQLAlchemy URL")
-
 
 @pytest.mark.parametrize("server", ["sqlite", "postgresql"])
-def test_two_processes_share_one_rdb_study(tmp_path, server):
+def test_two_processes_share_one_rdb_study(tmp_path, server, request):
     # RBMO is generational: its generations only close when both processes' results are read from storage.
-    storage = f"sqlite:///{tmp_path / 'study.db'}" if server == "sqlite" else postgres_url()
+    storage = f"sqlite:///{tmp_path / 'study.db'}" if server == "sqlite" \
+        else request.getfixturevalue("postgres_url")
     name = f"shared-{uuid.uuid4().hex}"  # one PostgreSQL database serves every test process
     optuna.create_study(study_name=name, storage=storage)
     code = WORKER.format(centre=CENTRE.tolist())
