@@ -14,8 +14,13 @@ are an error that names both origins.
 
 from __future__ import annotations
 
+import hashlib
 import importlib.metadata
 import inspect
+import json
+import os
+import sys
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
@@ -133,6 +138,12 @@ def build(factory: Callable[..., Any], params: dict[str, Any]) -> Any:
     return built.set_params(**nested) if nested else built
 
 
+def _entry_points() -> list[importlib.metadata.EntryPoint]:
+    """The ``thermodrift`` entry points of every installed distribution, in load order."""
+    return sorted(importlib.metadata.entry_points(group=hookspecs.PROJECT),
+                  key=lambda ep: (ep.dist.name if ep.dist else "", ep.name))
+
+
 def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Registry:
     """Load every plugin of the ``thermodrift`` entry-point group into a fresh :class:`Registry`.
 
@@ -144,8 +155,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
     the others still load.
     """
     if entry_points is None:
-        entry_points = sorted(importlib.metadata.entry_points(group=hookspecs.PROJECT),
-                              key=lambda ep: (ep.dist.name if ep.dist else "", ep.name))
+        entry_points = _entry_points()
     manager = pluggy.PluginManager(hookspecs.PROJECT)
     manager.add_hookspecs(hookspecs)
     registry = Registry()
@@ -191,11 +201,97 @@ _DEFAULT: Registry | None = None
 
 
 def default() -> Registry:
-    """The process-wide registry, loaded on first use."""
+    """The process-wide registry, loaded on first use; its listing is saved for :func:`listing`."""
     global _DEFAULT
     if _DEFAULT is None:
-        _DEFAULT = load()
+        entry_points = _entry_points()
+        before = set(sys.modules)
+        _DEFAULT = load(entry_points)
+        _save_listing(_DEFAULT, entry_points, set(sys.modules) - before)
     return _DEFAULT
+
+
+@dataclass(frozen=True)
+class Listing:
+    """What is installed, by name only: component names per kind, Hydra search paths, failed plugins."""
+
+    components: dict[str, list[str]]
+    searchpaths: list[str]
+    failures: dict[str, str]
+
+    def names(self, kind: str) -> list[str]:
+        """Sorted component names of ``kind``."""
+        return list(self.components.get(kind, []))
+
+
+# Listing the components means importing every plugin, and plugins import scikit-learn, scipy and pandas
+# (about 2 s on a 2-core machine). ``thermodrift run --help`` needs only the names, so the last full load's
+# names are kept in a small JSON file, valid while the installed entry points and every file of the plugins'
+# own packages that the load imported are unchanged (same size and modification time). Neither importlib nor
+# pluggy keeps such a listing.
+_CACHE_VERSION = 1
+
+
+def _cache_file(entry_points: list[importlib.metadata.EntryPoint]) -> Path | None:
+    root = os.environ.get("THERMODRIFT_CACHE_DIR") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache"), "thermodrift")
+    if os.environ.get("THERMODRIFT_NO_CACHE"):
+        return None
+    key = json.dumps([_CACHE_VERSION, sys.prefix, sys.version, _described(entry_points)])
+    return Path(root) / f"components-{hashlib.sha256(key.encode()).hexdigest()[:16]}.json"
+
+
+def _described(entry_points: list[importlib.metadata.EntryPoint]) -> list[list[str]]:
+    return [[ep.dist.name if ep.dist else "", ep.dist.version if ep.dist else "", ep.name, ep.value]
+            for ep in entry_points]
+
+
+def _stat(path: str) -> list[int] | None:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return [st.st_mtime_ns, st.st_size]
+
+
+def _save_listing(reg: Registry, entry_points: list[importlib.metadata.EntryPoint], imported: set[str]) -> None:
+    """Write the listing of a full load, with the stat of every imported file of the plugins' packages."""
+    target = _cache_file(entry_points)
+    if target is None:
+        return
+    tops = {ep.value.split(":")[0].split(".")[0] for ep in entry_points}
+    files = {}
+    for name in imported:
+        path = getattr(sys.modules.get(name), "__file__", None)
+        if name.split(".")[0] in tops and path:
+            files[path] = _stat(path)
+    data = {"entry_points": _described(entry_points), "files": files,
+            "components": {k: reg.names(k) for k in KINDS}, "searchpaths": reg.searchpaths,
+            "failures": reg.failures}
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(data), encoding="utf-8")
+        os.replace(tmp, target)  # atomic: a concurrent reader sees the old or the new file, never half of one
+    except OSError:  # a read-only home only costs speed
+        pass
+
+
+def listing() -> Listing:
+    """Component names, search paths and failures of the installed plugins, read from the saved listing when
+    nothing installed changed since the last full load, else by loading the registry (which saves it)."""
+    entry_points = _entry_points()
+    target = _cache_file(entry_points)
+    if _DEFAULT is None and target is not None:
+        try:
+            data = json.loads(target.read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            data = None
+        if (data and data.get("entry_points") == _described(entry_points)
+                and all(_stat(path) == stat for path, stat in data["files"].items())):
+            return Listing(data["components"], data["searchpaths"], data["failures"])
+    reg = default()
+    return Listing({k: reg.names(k) for k in KINDS}, list(reg.searchpaths), dict(reg.failures))
 
 
 def names(kind: str) -> list[str]:

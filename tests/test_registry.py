@@ -7,6 +7,8 @@ modules live on ``sys.path`` only for the test, their metadata never, so the pro
 from __future__ import annotations
 
 import importlib.metadata
+import json
+import os
 import subprocess
 import sys
 import textwrap
@@ -225,3 +227,39 @@ def test_loading_every_plugin_imports_neither_torch_nor_scipy_signal():
             "print(' '.join(m for m in ('torch', 'scipy.signal') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert not out, f"loading the registry imported {out}"
+
+
+_LISTING = ("import json, sys; from thermodrift.core import registry; ls = registry.listing(); "
+            "print(json.dumps([ls.components, 'sklearn' in sys.modules]))")
+
+
+def _listing_in_a_new_process(cache_dir: Path) -> tuple[dict, bool]:
+    env = {**os.environ, "THERMODRIFT_CACHE_DIR": str(cache_dir)}
+    env.pop("THERMODRIFT_NO_CACHE", None)
+    out = subprocess.run([sys.executable, "-c", _LISTING], capture_output=True, text=True, env=env, check=True)
+    components, imported_sklearn = json.loads(out.stdout.strip().splitlines()[-1])
+    return components, imported_sklearn
+
+
+def test_the_listing_is_saved_by_a_full_load_and_read_back_without_importing_the_plugins(tmp_path):
+    loaded = {k: registry.default().names(k) for k in registry.KINDS}
+    first, imported_first = _listing_in_a_new_process(tmp_path)
+    second, imported_second = _listing_in_a_new_process(tmp_path)
+    assert first == second == loaded
+    assert imported_first and not imported_second  # the second one read the saved listing
+
+
+def test_the_saved_listing_is_not_used_once_a_plugin_file_changed(tmp_path):
+    _listing_in_a_new_process(tmp_path)
+    (saved,) = tmp_path.glob("components-*.json")
+    data = json.loads(saved.read_text())
+    plugin_file = tmp_path / "plugin_module.py"
+    plugin_file.write_text("x = 1\n")
+    data["files"][str(plugin_file)] = registry._stat(str(plugin_file))
+    data["components"]["model"].append("removed_since")
+    saved.write_text(json.dumps(data))
+    components, imported = _listing_in_a_new_process(tmp_path)
+    assert "removed_since" in components["model"] and not imported  # unchanged files: the listing is trusted
+    plugin_file.write_text("x = 22\n")  # a plugin's source changed: the listing is rebuilt by a full load
+    components, imported = _listing_in_a_new_process(tmp_path)
+    assert imported and "removed_since" not in components["model"]

@@ -81,7 +81,7 @@ def defaults() -> dict[str, str]:
     return {k: v for item in listed if isinstance(item, dict) for k, v in item.items()}
 
 
-def options(group: str, reg: registry.Registry) -> list[str]:
+def options(group: str, reg: registry.Registry | registry.Listing) -> list[str]:
     """Every option of ``group``: its registered components and its YAML files (presets such as ``pso_s1``)."""
     kind = GROUPS[group][0]
     names = set(configs.yaml_files(reg.searchpaths, group))
@@ -90,9 +90,9 @@ def options(group: str, reg: registry.Registry) -> list[str]:
     return sorted(names)
 
 
-def help_text(reg: registry.Registry | None = None) -> str:
-    """The text of ``thermodrift run --help``."""
-    reg = reg or registry.default()
+def help_text(reg: registry.Registry | registry.Listing | None = None) -> str:
+    """The text of ``thermodrift run --help``; without ``reg``, from the saved listing of installed plugins."""
+    reg = reg or registry.listing()
     chosen = defaults()
     lines = ["usage: thermodrift run [KEY=VALUE ...] [GROUP=OPTION ...] [-m] [--cfg job] [--hydra-help]", "",
              "One job = dataset -> split -> selector -> Optuna study of the model (optimizer = its sampler) ->",
@@ -108,6 +108,7 @@ def help_text(reg: registry.Registry | None = None) -> str:
     for k in keys():
         lines.append(f"  {k.path:<{width}}{k.default:<28} {k.doc}".rstrip())
     lines += ["", "Hydra options: -m/--multirun, --cfg job|hydra|all, --resolve, --info, -cn/-cp, --hydra-help."]
+    lines += [f"warning: plugin {key} failed to load and is left out: {error}" for key, error in reg.failures.items()]
     return "\n".join(lines)
 
 
