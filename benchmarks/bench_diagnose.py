@@ -19,11 +19,16 @@ Run::
     python benchmarks/bench_diagnose.py                # default: 11 hidden + 6 null cases, dt 120 s (~5 min)
     python benchmarks/bench_diagnose.py --full         # 22 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
     python benchmarks/bench_diagnose.py --fl --skip-synthetic   # only the semi-synthetic FL_THERMAL cases
+    python benchmarks/bench_diagnose.py --full --results rows.jsonl   # a run cut off goes on where it stopped
+
+``--results`` keeps one JSON line per finished case and skips the cases already in it, so a long run can be
+split into several shorter ones; start a new file after changing the code.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import sys
 import time
@@ -211,7 +216,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--skip-synthetic", action="store_true", help="run only the FL_THERMAL cases (with --fl)")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of FL_THERMAL's data.xlsx")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--results", type=Path, help="JSON lines of finished cases: kept, and skipped on a re-run")
     args = ap.parse_args(argv)
+    done = {}
+    if args.results and args.results.is_file():
+        for line in args.results.read_text(encoding="utf-8").splitlines():
+            if line.strip():
+                row = json.loads(line)
+                done[row["case"]] = row
     reg = registry.default()
     per, nulls, dt = (2, 20, 120.0) if args.full else (1, 6, 120.0)
     rows = []
@@ -222,8 +234,14 @@ def main(argv: list[str] | None = None) -> int:
                   for i, (m, h) in enumerate([("vmc_spindle_s2", "slow_structural_mode"),
                                               ("motorized_spindle_s3", "coolant_coupling")])]
     for case in cases:
+        if case.name in done:
+            rows.append(done[case.name])
+            continue
         r = run_case(case, args.seed)
         rows.append(r)
+        if args.results:
+            with args.results.open("a", encoding="utf-8") as fh:
+                fh.write(json.dumps(r) + "\n")
         print(f"{r['case']:<44} top-1 {r['top1']:<28} {r['seconds']:6.1f} s", file=sys.stderr, flush=True)
     if args.fl and not (args.data / "data.xlsx").is_file():
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
