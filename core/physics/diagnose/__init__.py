@@ -13,8 +13,10 @@ Pipeline (:func:`diagnose`)::
     accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
                   screened candidates), its fitted parameters lie within their physical bounds, it explains
                   at least 5 % of the baseline's misfit (a margin for model error the white-noise test does
-                  not see) and its condition-blocked cross-validated gain is positive in at least half the
-                  blocks; then screen again on the augmented network (forward selection) until nothing passes
+                  not see), its condition-blocked cross-validated gain is positive in at least half the
+                  blocks, and, fitted again without the inner validation block (the last ~20 % of the
+                  screening rows, cut at a condition boundary), it predicts that block better than the
+                  baseline refitted alike, displacement channels included; then screen again on the augmented network (forward selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit
@@ -143,6 +145,10 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     measured = recording.data[channels].to_numpy(dtype=float)
     rows = np.flatnonzero(fit_rows)
     blocks = condition_blocks(recording, rows)
+    inner_rows = fit_rows & (t < final_cut(fit_rec))
+    inner_rec = recording.select(inner_rows)
+    inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
+    displacement = np.array([k == "displacement" for k in kinds])
     base = screening.baseline_of(cal.network, scenario, channels, measured, rows)
     first = base
     findings: list[dict[str, Any]] = []
@@ -171,11 +177,14 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
+        validation = selection.Validation(inner_rec, inner, val_rows, screening.baseline_of(
+            base.network, scenario, channels, measured, inner).readings)
         fitted = []
         for c in ranked:
             try:
                 fitted.append(selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
-                                            base.readings, rows, blocks, fit_evaluations))
+                                            base.readings, rows, blocks, fit_evaluations, validation=validation,
+                                            displacement=displacement))
             except InputError as exc:  # the augmented network cannot be simulated at some parameter value
                 rejected.append({"mechanism": c.mechanism, "reason": f"fit failed: {exc}"})
         if not fitted:
@@ -183,9 +192,10 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         floor = MIN_SHARE * screen.sse0_bal
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
-            "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins} for f in fitted]
+            "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
+            "validation_gain_displacement": f.val_disp} for f in fitted]
         passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
-                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside]
+                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside and _validates(f)]
         if not passing:
             for f in fitted:
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": _why_not(f, alpha, m, floor)})
@@ -233,6 +243,11 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
     return out
 
 
+def _validates(f) -> bool:
+    """The fit made without the inner validation block predicts it better, and no worse on displacement."""
+    return f.val_bal > 0 and not f.val_disp < 0
+
+
 def _why_not(f, alpha: float, m: int, floor: float) -> str:
     c = f.candidate
     if f.dsse <= 0:
@@ -243,6 +258,9 @@ def _why_not(f, alpha: float, m: int, floor: float) -> str:
         return f"explains under {MIN_SHARE:.0%} of the baseline's misfit"
     if f.outside:
         return "fits only with unphysical values: " + "; ".join(f.outside)
+    if not _validates(f):
+        return ("fitted without the last part of the fitted data, it does not predict that part better than the "
+                f"baseline (noise-weighted gain {f.val_bal:.3g}, on the drift channels {f.val_disp:.3g})")
     return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
 
 

@@ -123,11 +123,15 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                   if f["where"] else "Where: spread over the whole recording.", ""]
     lines += ["## Candidates fitted by re-simulation", "",
               "Share of the baseline's (balanced) misfit explained by the linearised screening and by the "
-              "re-simulated fit; LR: drop of the noise-weighted sum of squares.", "",
-              "| round | candidate | screening share | fitted share | LR | p | held-out blocks improved |",
-              "|---:|---|---:|---:|---:|---:|---:|"]
+              "re-simulated fit; LR: drop of the noise-weighted sum of squares; blocks: share of condition blocks "
+              "the linearised screening predicts better when left out; validation: drop of the balanced "
+              "(drift channels alone) noise-weighted sum of squares on the inner validation block, fitted "
+              "without it (> 0: better than the baseline).", "",
+              "| round | candidate | screening share | fitted share | LR | p | blocks improved | validation |",
+              "|---:|---|---:|---:|---:|---:|---:|---:|"]
     lines += [f"| {t['round']} | {t['candidate']} | {t['screen_share']:.1%} | {t['fit_share']:.1%} | {t['lr']:.3g} | "
-              f"{t['p_value']:.2g} | {t['blocks_improved']:.0%} |" for t in d.trace]
+              f"{t['p_value']:.2g} | {t['blocks_improved']:.0%} | {t['validation_gain']:.3g} "
+              f"({t['validation_gain_displacement']:.3g}) |" for t in d.trace]
     lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
     lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]
     lines += ["", "Files: `report.json`, `residuals.csv` (measured − prediction per channel), `residual_map.png`, "

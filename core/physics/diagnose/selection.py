@@ -6,6 +6,11 @@ baseline's sensitivities and offsets) on the screening rows; the baseline's para
 calibrated values. Its score is the drop of the noise-weighted residual sum of squares over those rows: with
 known noise σ that is the likelihood-ratio statistic, χ²(free parameters) when nothing is missing, tested at a
 Bonferroni level α/m over the m screened candidates.
+
+The same candidate is also fitted by re-simulation on the screening rows before an inner validation block
+(their last condition run or runs, cut like the final block) and scored on that block against the baseline
+refitted on the same rows: a mechanism must predict data its fit did not see, the way the final block and
+the controller will use it, not only lower the misfit where it was fitted.
 """
 
 from __future__ import annotations
@@ -55,6 +60,8 @@ class Fitted:
     outside: list[str] = field(default_factory=list)  # parameters fitted outside their physical bounds
     block_raw: Any = None  # per condition block: drop of the noise-weighted sum of squares
     block_bal: Any = None  # the same, balanced
+    val_bal: float = float("nan")  # balanced drop on the inner validation block, fitted without it
+    val_disp: float = float("nan")  # the same over the displacement channels alone
 
 
 def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeParam, float]]]:
@@ -76,13 +83,42 @@ def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeP
     return net, out
 
 
+@dataclass
+class Validation:
+    """The inner validation split of the screening rows: fit on ``recording`` (rows ``inner``), score on
+    ``rows``; ``base_readings`` is the baseline refitted linearly on ``inner``."""
+
+    recording: Any
+    inner: np.ndarray
+    rows: np.ndarray
+    base_readings: np.ndarray
+
+
 def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[str], measured: np.ndarray,
         sigma: np.ndarray, weights: np.ndarray, base_readings: np.ndarray, rows: np.ndarray, blocks: np.ndarray,
-        max_evaluations: int, level: float = 0.95) -> Fitted:
+        max_evaluations: int, level: float = 0.95, validation: Validation | None = None,
+        displacement: np.ndarray | None = None) -> Fitted:
     """Calibrate the candidate's free parameters by re-simulation and score the augmented network.
 
-    ``weights`` per channel balance the channel kinds for ``dsse_bal``.
+    ``weights`` per channel balance the channel kinds for ``dsse_bal``; ``displacement`` marks the
+    displacement channels (bool per channel) for ``val_disp``.
     """
+    fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
+                  blocks, max_evaluations, level, intervals=True)
+    if validation is not None:
+        inner = _fit(cand, base, validation.recording, scenario, channels, measured, sigma, weights,
+                     validation.base_readings, validation.inner, None, max_evaluations, level,
+                     intervals=False)
+        d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
+        d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
+        drop = d0.sum(axis=0) - d1.sum(axis=0)
+        fitted.val_bal = float(drop @ weights)
+        fitted.val_disp = float(drop[displacement].sum()) if displacement is not None else float("nan")
+    return fitted
+
+
+def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
+         max_evaluations, level, intervals: bool) -> Fitted:
     net, declared = _declared(cand, base)
     searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
     net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
@@ -93,7 +129,7 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
             lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
         free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit,
                                   log=fp.scale == "log"))
-    res = calibrate(fit_recording, net, free=free, intervals=bool(free), level=level,
+    res = calibrate(fit_recording, net, free=free, intervals=intervals and bool(free), level=level,
                     max_evaluations=max_evaluations)
     readings = baseline_of(res.network, scenario, channels, measured, rows).readings
     d0 = (((measured - base_readings) / sigma)[rows]) ** 2
@@ -115,10 +151,12 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     slack = 1e-6
     outside = [f"{fp.name} = {params[fp.name]:.4g} {fp.unit} outside [{fp.low:g}, {fp.high:g}]" for fp, _ in declared
                if not fp.low - slack * abs(fp.low) <= params[fp.name] <= fp.high + slack * abs(fp.high)]
-    nb = int(blocks.max()) + 1
-    diff = d0 - d1
-    block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
-    block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
+    block_raw = block_bal = None
+    if blocks is not None:
+        nb = int(blocks.max()) + 1
+        diff = d0 - d1
+        block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
+        block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
                   float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal)
 
