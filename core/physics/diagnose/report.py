@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from thermodrift.core.physics.diagnose import selection
+
 
 def _r(x: float) -> float:
     return round(float(x), 4)
@@ -60,12 +62,16 @@ def verdict(d) -> str:
     final = ~d.fit_rows
     before, after = d.rmse(d.baseline, final), d.rmse(d.augmented, final)
     drift = "; ".join(f"{c} {before[c]:.2f} → {after[c]:.2f} µm" for c in before)
+    fitted = d.rmse(d.baseline, d.fit_rows)
+    far = [c for c in before if before[c] > 3 * fitted[c]]
+    outside = (f" The calibrated model itself misses the final block by over 3 times its fitted error on "
+               f"{', '.join(far)}: that block's conditions lie outside those it was fitted on." if far else "")
     if not d.findings:
         return ("Nothing is missing as far as this data can tell: no mechanism in the library explains a "
                 "significant share of what the calibrated model misses (every candidate failed the corrected "
                 "likelihood-ratio test, the held-out condition blocks or the 5 % floor; see rejected). "
                 f"The calibrated model's drift error on the final, unseen block: "
-                + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + ".")
+                + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + "." + outside)
     parts = []
     for f in d.findings:
         sure = "high" if f["confidence"] >= 0.8 else "moderate" if f["confidence"] >= 0.5 else "low"
@@ -78,6 +84,13 @@ def verdict(d) -> str:
     text = ("The calibrated model leaves out " + "; then ".join(parts) + ". "
             f"Adding {'it' if len(parts) == 1 else 'them'} changes the drift error on the final block that no step "
             f"of the search saw: {drift}.")
+    worse = [c for c in before if after[c] > before[c]]
+    if worse:
+        text += (f" It is worse there on {len(worse)} of {len(before)} drift channels: the finding fits the data it "
+                 "was found on but does not carry over to the final block, so confirm it with "
+                 f"{selection.EXPERIMENTS.get(d.findings[0]['mechanism'], 'an experiment driving it alone')} "
+                 "before compensating with it.")
+    text += outside
     if unsure:
         text += " " + " ".join(f"{r['mechanism'].replace('_', ' ')} would explain it as well ({r['reason']})."
                                for r in unsure)
