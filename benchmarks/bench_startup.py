@@ -4,7 +4,9 @@ Each command runs ``--repeats`` times in a new Python process (wall seconds, med
 share one run, so the ratios hold on a busy machine too. ``registry.default()`` loads every installed plugin
 (selectors, models, optimizers, datasets, mechanisms); ``thermodrift plugins`` adds the listing itself;
 ``thermodrift run --help`` adds the shipped YAML files and ``conf/config.yaml`` (its target: under 3 s on an
-idle machine, without importing Hydra, MLflow or torch). The last column names the heavy modules the process
+idle machine, without importing Hydra, MLflow or torch); it reads the component names from the listing that
+the last full load saved (``registry.listing()``), and the row "no saved listing" shows it without
+(``THERMODRIFT_NO_CACHE=1``: the first call after installing or changing a plugin). The last column names the heavy modules the process
 ended up importing; the first line the machine's load average, since a busy machine stretches every row.
 
     python benchmarks/bench_startup.py            # or: thermodrift bench startup
@@ -22,13 +24,15 @@ import sys
 import time
 
 HEAVY = ("torch", "scipy.signal", "scipy.stats", "sklearn", "pandas", "mlflow", "hydra")
-PROBE = "; import sys; print(' '.join(m for m in {heavy!r} if m in sys.modules))"
+PROBE = "; import sys; print('heavy:', ' '.join(m for m in {heavy!r} if m in sys.modules))"
 COMMANDS = {
     "python -c pass": "pass",
     "import thermodrift.core": "import thermodrift.core",
     "registry.default()": "from thermodrift.core import registry; registry.default()",
     "thermodrift plugins": "from thermodrift.core.cli import main; main(['plugins'])",
     "thermodrift run --help": "from thermodrift.core.cli import main; main(['run', '--help'])",
+    "thermodrift run --help, no saved listing": "import os; os.environ['THERMODRIFT_NO_CACHE'] = '1'; "
+                                                "from thermodrift.core.cli import main; main(['run', '--help'])",
     "import torch": "import torch",
     "import scipy.signal": "import scipy.signal",
 }
@@ -45,7 +49,8 @@ def timed(code: str) -> tuple[float, float, str]:
     wall = time.perf_counter() - start
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu, out.strip().splitlines()[-1] if out.strip() else ""
+    heavy = next(line for line in reversed(out.splitlines()) if line.startswith("heavy:"))
+    return wall, cpu, heavy.removeprefix("heavy:").strip()
 
 
 def main(argv: list[str] | None = None) -> int:
