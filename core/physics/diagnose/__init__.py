@@ -16,7 +16,9 @@ Pipeline (:func:`diagnose`)::
                   not see), its condition-blocked cross-validated gain is positive in at least half the
                   blocks, and, fitted again without the inner validation block (the last ~20 % of the
                   screening rows, cut at a condition boundary), it predicts that block better than the
-                  baseline refitted alike, displacement channels included; then screen again on the augmented network (forward selection) until nothing passes
+                  baseline refitted alike (balanced gain > 0) and its drift no worse than 10 % or than
+                  3 standard deviations of noise (noise-weighted sum of squares of the displacement
+                  channels); then screen again on the augmented network (forward selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit
@@ -48,6 +50,8 @@ MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
 EQUIVALENT = 0.05   # rival within this share of the winner's gain: not identifiable
 MIN_SHARE = 0.05    # an accepted mechanism explains at least this share of the (balanced) misfit
+VAL_DRIFT_SLACK = 0.10  # ... and leaves the inner validation block's drift at most this much worse, or within
+VAL_DRIFT_Z = 3.0       # this many standard deviations of a noise-only sum of squares (χ², 2n variance)
 
 
 @dataclass
@@ -193,7 +197,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
-            "validation_gain_displacement": f.val_disp} for f in fitted]
+            "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0} for f in fitted]
         passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
                    and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside and _validates(f)]
         if not passing:
@@ -244,8 +248,11 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
 
 
 def _validates(f) -> bool:
-    """The fit made without the inner validation block predicts it better, and no worse on displacement."""
-    return f.val_bal > 0 and not f.val_disp < 0
+    """The fit made without the inner validation block predicts it better (balanced), and its drift is no
+    worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at the noise floor the
+    sum of squares of n values varies by √(2n) noise units)."""
+    slack = max(VAL_DRIFT_SLACK * f.val_disp0, VAL_DRIFT_Z * np.sqrt(2.0 * f.val_disp_n))
+    return f.val_bal > 0 and not f.val_disp < -slack
 
 
 def _why_not(f, alpha: float, m: int, floor: float) -> str:
@@ -260,7 +267,8 @@ def _why_not(f, alpha: float, m: int, floor: float) -> str:
         return "fits only with unphysical values: " + "; ".join(f.outside)
     if not _validates(f):
         return ("fitted without the last part of the fitted data, it does not predict that part better than the "
-                f"baseline (noise-weighted gain {f.val_bal:.3g}, on the drift channels {f.val_disp:.3g})")
+                f"baseline (noise-weighted gain {f.val_bal:.3g}; on the drift channels {f.val_disp:.3g} of "
+                f"{f.val_disp0:.3g})")
     return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
 
 

@@ -62,6 +62,8 @@ class Fitted:
     block_bal: Any = None  # the same, balanced
     val_bal: float = float("nan")  # balanced drop on the inner validation block, fitted without it
     val_disp: float = float("nan")  # the same over the displacement channels alone
+    val_disp0: float = float("nan")  # the baseline's noise-weighted sum of squares there, displacement channels
+    val_disp_n: int = 0              # the number of displacement values it sums
 
 
 def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeParam, float]]]:
@@ -113,7 +115,9 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
         fitted.val_bal = float(drop @ weights)
-        fitted.val_disp = float(drop[displacement].sum()) if displacement is not None else float("nan")
+        if displacement is not None:
+            fitted.val_disp, fitted.val_disp0 = float(drop[displacement].sum()), float(d0[:, displacement].sum())
+            fitted.val_disp_n = int(d0[:, displacement].size)
     return fitted
 
 
