@@ -1,4 +1,5 @@
-"""The MLflow tracking server down at the start, or killed mid-grid: one line, exit 2, no completed trial lost.
+"""The MLflow tracking server down at the start, killed mid-study or mid-grid: one line, exit 2, no completed
+trial lost.
 
 A real ``mlflow server`` runs on loopback and is killed by its process group id; the Optuna storage and the
 per-job ``job.json`` files are read afterwards.
@@ -53,28 +54,70 @@ def test_a_server_that_is_down_at_the_start_is_one_line_and_exit_2(workdir):
     assert grid.returncode == 2 and "Traceback" not in grid.stderr and "does not answer" in grid.stderr
 
 
+def _start_server(folder, port: int) -> subprocess.Popen:
+    """A real MLflow tracking server on loopback, its store in ``folder``, answering /health."""
+    proc = subprocess.Popen([sys.executable, "-m", "mlflow", "server", "--backend-store-uri",
+                             f"sqlite:///{folder / 'x.db'}", "--host", "127.0.0.1", "--port", str(port),
+                             "--workers", "1"], cwd=folder, env=_env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+    for _ in range(600):
+        try:
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/health", timeout=1):
+                break
+        except OSError:
+            assert proc.poll() is None, "mlflow server exited"
+            time.sleep(0.2)
+    return proc
+
+
 @pytest.fixture()
 def server(tmp_path):
     """A real MLflow tracking server on loopback: (uri, process)."""
     port = _free_port()
     folder = tmp_path / "server"
     folder.mkdir()
-    proc = subprocess.Popen([sys.executable, "-m", "mlflow", "server", "--backend-store-uri",
-                             f"sqlite:///{folder / 'x.db'}", "--host", "127.0.0.1", "--port", str(port),
-                             "--workers", "1"], cwd=folder, env=_env(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
-    uri = f"http://127.0.0.1:{port}"
-    for _ in range(600):
-        try:
-            with urllib.request.urlopen(uri + "/health", timeout=1):
-                break
-        except OSError:
-            assert proc.poll() is None, "mlflow server exited"
-            time.sleep(0.2)
-    yield uri, proc
+    proc = _start_server(folder, port)
+    yield f"http://127.0.0.1:{port}", proc
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
+
+
+def _trial_states(db) -> list[tuple[str, str]]:
+    """(study name, state) of every trial in the Optuna SQLite file ``db``; [] before the schema exists."""
+    try:
+        with sqlite3.connect(db) as con:
+            return con.execute("SELECT s.study_name, t.state FROM trials t JOIN studies s USING (study_id)").fetchall()
+    except sqlite3.OperationalError:
+        return []
+
+
+def test_a_server_killed_mid_study_loses_no_trial_and_the_same_command_logs_the_study(workdir, server):
+    uri, proc = server
+    job = [*EXE, *TINY[:4], "model=bp", "model.params.trainer.epochs=20", "n_trials=6", f"tracking.uri={uri}"]
+    run = subprocess.Popen(job, cwd=workdir, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and run.poll() is None and \
+            not any(state == "COMPLETE" for _, state in _trial_states(workdir / "thermodrift.optuna.db")):
+        time.sleep(0.05)
+    os.killpg(proc.pid, signal.SIGKILL)  # the server dies while the study runs
+    proc.wait()
+    _, err = run.communicate(timeout=300)
+    states = _trial_states(workdir / "thermodrift.optuna.db")
+    assert 1 <= len(states) < 6 + 1 and run.returncode == 2 and "Traceback" not in err, err[-3000:]
+    (line,) = err.strip().splitlines()
+    assert "stopped answering" in line and "every completed trial is kept in study" in line
+    # The study went on without the server: the whole budget completed, nothing left RUNNING.
+    assert [state for _, state in states] == ["COMPLETE"] * 6
+    # The same command once the server is back: the study resumes complete and its result is logged.
+    proc = _start_server(workdir / "server", int(uri.rsplit(":", 1)[1]))
+    try:
+        again = subprocess.run(job, cwd=workdir, env=_env(), capture_output=True, text=True, timeout=300)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert [state for _, state in _trial_states(workdir / "thermodrift.optuna.db")] == ["COMPLETE"] * 6
 
 
 def test_a_server_killed_mid_grid_loses_no_trial_and_the_grid_ends_cleanly(workdir, server):

@@ -26,7 +26,7 @@ take the same slot:
    best, the finished members ranked by fitness, members per generation, and the replayed population after each
    closed generation); an ask re-reads only the trials that were unfinished or new since the last one, so its
    cost hardly grows with the size of the study.
-3. Give the new trial a slot 0..N-1 and a generation.
+3. Give the new trial a slot 0..N-1 and a generation, and claim that cell through the storage (below).
    *Asynchronous* algorithms (PSO, GWO): the free slot (its latest trial finished, or none yet) with the fewest
    trials, ties to the lowest index; ``gen`` counts that slot's moves. With more workers than slots, the least
    used busy slot moves again from its latest proposal.
@@ -45,9 +45,19 @@ take the same slot:
 
 Parameters outside the relative space are drawn as :class:`optuna.samplers.RandomSampler` draws them (uniform in
 the transformed space), from a stream seeded by ``(seed, trial.number, crc32(name))``. Schedules that need t/T
-read the budget ``n_trials`` given at construction (the study passes its own). Several OS processes may share one
-RDB study: each reads the others' trials from storage; two processes asking at the same instant may pick the
-same slot, which costs one duplicate proposal.
+read the budget ``n_trials`` given at construction (the study passes its own).
+
+Several OS processes or machines may share one RDB study: each reads the others' trials from storage. Two of them
+asking at the same instant read the same state and would pick the same cell (generation, slot), so a cell is
+claimed before it is used: the claim is a study system attribute ``<prefix>:claim:<space>:<gen>:<slot>:<k>``
+(``k`` counts the cell's earlier trials, re-proposals of generational algorithms) whose value is the claiming
+trial's id. On an RDB storage (SQLite, PostgreSQL, MySQL) the claim is a plain INSERT into Optuna's
+``study_system_attributes`` table, whose unique (study, key) constraint lets exactly one worker win; Optuna's own
+``set_study_system_attr`` overwrites, so it cannot serve. In memory the claim is made under the storage's lock.
+Other storages (journal, gRPC proxy) get a check-then-write claim that narrows the race without closing it. A
+worker that loses a claim treats the cell as taken by a pending trial it cannot see yet (or, when the winner's
+trial has already ended without a record, as used), re-reads the storage and picks again, so no cell goes to two
+workers while the population state stays in storage and a resumed run still continues the same sequence.
 """
 
 from __future__ import annotations
@@ -64,9 +74,12 @@ from typing import Any, ClassVar, Sequence
 
 import numpy as np
 import optuna
+import sqlalchemy.exc
 from optuna._transform import _SearchSpaceTransform  # Optuna's own encoder, shared with its CMA-ES and GP samplers
 from optuna.distributions import BaseDistribution, distribution_to_json
 from optuna.samplers import BaseSampler
+from optuna.storages import BaseStorage, InMemoryStorage, RDBStorage
+from optuna.storages._rdb import models as rdb_models  # the claim's INSERT needs the table Optuna's RDB schema defines
 from optuna.search_space import IntersectionSearchSpace
 from optuna.study import StudyDirection
 from optuna.trial import FrozenTrial, TrialState
@@ -228,12 +241,21 @@ class PopulationSampler(BaseSampler, abc.ABC):
             return {}
         space = dict(sorted(search_space.items()))
         transform = _SearchSpaceTransform(space, transform_0_1=True)
+        signature = _signature(space)
         with self._lock:
-            ledger, pending = self._read(study, space, transform, trial.number)
-            ctx = self._context(ledger, pending, trial.number, transform.bounds.shape[0])
+            lost: dict[tuple[int, int, int], bool] = {}  # cells other trials claimed -> whether that trial runs
+            while True:
+                ledger, pending = self._read(study, space, transform, trial.number)
+                ctx, k = self._context(ledger, pending, trial.number, transform.bounds.shape[0], lost)
+                owner = _claim(study._storage, study._study_id,
+                               f"{self.prefix}:claim:{signature}:{ctx.gen}:{ctx.slot}:{k}", trial._trial_id)
+                if owner is None:
+                    break
+                # Each loss adds a new cell that _context never returns again, so this ends.
+                lost[(ctx.gen, ctx.slot, k)] = not study._storage.get_trial(owner).state.is_finished()
             move = self._propose(ctx)
             x = np.clip(np.asarray(move.x, dtype=float), 0.0, 1.0)
-            attrs: dict[str, Any] = {"space": _signature(space), "slot": ctx.slot, "gen": ctx.gen,
+            attrs: dict[str, Any] = {"space": signature, "slot": ctx.slot, "gen": ctx.gen,
                                      "phase": move.phase}
             if move.v is not None:
                 attrs["v"] = np.asarray(move.v, dtype=float).tolist()
@@ -349,10 +371,15 @@ class PopulationSampler(BaseSampler, abc.ABC):
         x = np.clip(transform.transform({name: t.params[name] for name in space}), 0.0, 1.0)
         return Member(t.number, t.number, 0, "init", x, None, fitness)
 
-    def _context(self, ledger: _Ledger, pending: list[Member], number: int, dim: int) -> Context:
+    def _context(self, ledger: _Ledger, pending: list[Member], number: int, dim: int,
+                 lost: dict[tuple[int, int, int], bool] | None = None) -> tuple[Context, int]:
+        """The new trial's context and ``k``, the number of earlier trials in its cell (generation, slot).
+        ``lost`` maps the cells (gen, slot, k) that other trials claimed to whether their trial still runs; their
+        records may not be readable yet, so they count as trials of that cell here."""
         rng = np.random.default_rng([self._seed, number, 0])
         n = self.population_size
         ranked = ledger.ranked
+        lost = {(g, s, k): running for (g, s, k), running in (lost or {}).items() if s < n}
         if not self.generational:
             counts = [ledger.slot_count[s] for s in range(n)]
             latest = {s: m for s, m in ledger.slot_latest.items() if s < n}
@@ -361,23 +388,31 @@ class PopulationSampler(BaseSampler, abc.ABC):
                     counts[m.slot] += 1
                     if m.slot not in latest or m.number > latest[m.slot].number:
                         latest[m.slot] = m
-            free = [s for s in range(n) if s not in latest or latest[s].finished]
+            busy = set()
+            for (g, s, _), running in lost.items():  # an asynchronous slot's gen counts its moves
+                counts[s] = max(counts[s], g + 1)
+                if running:
+                    busy.add(s)
+            free = [s for s in range(n) if s not in busy and (s not in latest or latest[s].finished)]
             slot = min(free or range(n), key=lambda s: (counts[s], s))
             progress = min(1.0, (ledger.count + len(pending)) / self.n_trials)
             return Context(slot, counts[slot], dim, rng, progress, None, latest.get(slot), ledger.slot_best.get(slot),
-                           ranked)
+                           ranked), 0
 
         gen = max(0, ledger.max_gen, *(m.gen for m in pending))
         current = ledger.by_gen.get(gen, []) + [m for m in pending if m.gen == gen]
         if sum(m.finished for m in current) >= n:
             gen, current = gen + 1, []
-        taken = {m.slot for m in current}
-        open_slots = [s for s in range(n) if s not in taken]
+        tried = [sum(m.slot == s for m in current) for s in range(n)]  # trials per cell of this generation
+        for (g, s, k) in lost:
+            if g == gen:
+                tried[s] = max(tried[s], k + 1)
+        open_slots = [s for s in range(n) if tried[s] == 0]
         if open_slots:
             slot = open_slots[0]
         else:
             waiting = [s for s in range(n) if not any(m.finished for m in current if m.slot == s)]
-            slot = min(waiting, key=lambda s: (sum(m.slot == s for m in current), s))
+            slot = min(waiting, key=lambda s: (tried[s], s))
         population = None
         if gen > 0:
             if any(m.gen < gen for m in pending):  # a straggler of a closed generation: replay everything
@@ -385,7 +420,7 @@ class PopulationSampler(BaseSampler, abc.ABC):
             else:
                 population = self._population_of(ledger, gen, dim)
         progress = min(1.0, gen * n / self.n_trials)
-        return Context(slot, gen, dim, rng, progress, population, None, ledger.slot_best.get(slot), ranked)
+        return Context(slot, gen, dim, rng, progress, population, None, ledger.slot_best.get(slot), ranked), tried[slot]
 
     # --- the generational replay --------------------------------------------------------------------------------
 
@@ -450,6 +485,39 @@ class PopulationSampler(BaseSampler, abc.ABC):
     def _all_members(ledger: _Ledger, pending: list[Member]) -> list[Member]:
         folded = [m for cohort in ledger.by_gen.values() for m in cohort]
         return sorted(folded + pending, key=lambda m: m.number)
+
+
+def _claim(storage: BaseStorage, study_id: int, key: str, trial_id: int) -> int | None:
+    """Claim ``key`` of study ``study_id`` for trial ``trial_id``: None when this trial now holds it, else the id
+    of the trial that does. Exactly one claimant wins on RDB and in-memory storages (module docstring)."""
+    backend = getattr(storage, "_backend", storage)  # optuna.create_study wraps an RDBStorage in a cache
+    if isinstance(backend, RDBStorage):
+        # A plain INSERT: the table's unique (study_id, key) makes every claimant but the first fail.
+        session = backend.scoped_session()
+        try:
+            session.add(rdb_models.StudySystemAttributeModel(study_id=study_id, key=key,
+                                                             value_json=json.dumps(trial_id)))
+            session.commit()
+            return None
+        except sqlalchemy.exc.IntegrityError:
+            session.rollback()
+            value = session.query(rdb_models.StudySystemAttributeModel.value_json).filter_by(
+                study_id=study_id, key=key).scalar()
+            return int(json.loads(value))
+        finally:
+            session.close()
+    if isinstance(backend, InMemoryStorage):
+        with backend._lock:  # the lock every InMemoryStorage method holds
+            return _check_then_write(backend, study_id, key, trial_id)
+    return _check_then_write(backend, study_id, key, trial_id)
+
+
+def _check_then_write(storage: BaseStorage, study_id: int, key: str, trial_id: int) -> int | None:
+    owner = storage.get_study_system_attrs(study_id).get(key)
+    if owner is not None:
+        return int(owner)
+    storage.set_study_system_attr(study_id, key, trial_id)
+    return None
 
 
 def _signature(space: dict[str, BaseDistribution]) -> str:
