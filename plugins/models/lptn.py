@@ -134,7 +134,7 @@ class LPTN(ThermalModel):
 
     def _fresh(self) -> cal.StateObserver:
         obs = copy.copy(self.observer_)
-        obs.x, obs._last = None, None
+        obs.x, obs._last, obs._row_key = None, None, None
         return obs
 
     def _observe(self, obs: cal.StateObserver, X: pd.DataFrame) -> np.ndarray:
@@ -163,6 +163,7 @@ class _LPTNStreamer(Streamer):
         self.model = model
         self.obs = model._fresh()
         self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
+        self.bias = model.intercept_ - model.reference_ @ model.coef_  # displacement = x·coef + bias
         if history is not None and len(history):
             model._observe(self.obs, history)
 
@@ -178,7 +179,7 @@ class _LPTNStreamer(Streamer):
             raise ValueError("a physics model steps its state by time: pass each row as a pandas Series named by "
                              "its time in s (e.g. frame.loc[t])")
         x = self.obs.update(float(time_s), speed, ambient, ambient, temps)
-        return m._correct(temps, ambient, (x - m.reference_) @ m.coef_ + m.intercept_)
+        return m._correct(temps, ambient, x @ m.coef_ + self.bias)
 
 
 class LPTNHybrid(LPTN):
