@@ -69,19 +69,22 @@ class LPTN(ThermalModel):
     """Calibrated auto baseline network with a state observer (see the module docstring).
 
     ``hidden_nodes``: unobserved nodes acting on the displacements; ``max_evaluations``: iteration cap of the
-    calibration search; ``max_fit_samples``: cap of its fit grid (samples).
+    calibration search; ``max_fit_samples``: cap of its fit grid (samples); ``jitter_seed``: None starts the
+    calibration at the auto network's start, an int at that start jittered from this seed (to measure how much
+    the model depends on its start).
     """
 
     extra_input_roles: ClassVar[tuple[str, ...]] = ("temperature", "speed", "ambient")
     history_length: ClassVar[int | None] = None
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
-                 speed_column: str | None = None, ambient_column: str | None = None):
+                 speed_column: str | None = None, ambient_column: str | None = None, jitter_seed: int | None = None):
         self.hidden_nodes = hidden_nodes
         self.max_evaluations = max_evaluations
         self.max_fit_samples = max_fit_samples
         self.speed_column = speed_column
         self.ambient_column = ambient_column
+        self.jitter_seed = jitter_seed
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
@@ -106,7 +109,7 @@ class LPTN(ThermalModel):
             channels[name] = Channel(name, "displacement", "um", {})
         recording = Recording(data, channels, source="lptn training data")
         result = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
-                               max_fit_samples=self.max_fit_samples, intervals=False)
+                               max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed)
         self.network_ = result.network
         nodes = {s.name: s.weights for s in self.network_.temperature_sensors}
         self.observer_ = cal.StateObserver(
@@ -186,8 +189,9 @@ class LPTNHybrid(LPTN):
     """Physics plus a ridge model (``alpha``) of its training residual on temperatures and physics output."""
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
-                 alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None):
-        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column)
+                 alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None,
+                 jitter_seed: int | None = None):
+        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column, jitter_seed)
         self.alpha = alpha
 
     @classmethod

@@ -111,7 +111,7 @@ def calibrate(recording, network: Network | None = None, *,
               free: Sequence[FreeParameter] | Sequence[str] | None = None, targets: Sequence[str] | None = None,
               hidden_nodes: int = 2, max_evaluations: int = 100, starts: int = 1, seed: int = 0,
               level: float = 0.95, max_fit_samples: int = MAX_FIT_SAMPLES, intervals: bool = True,
-              progress: bool = False) -> CalibrationResult:
+              progress: bool = False, jitter_seed: int | None = None) -> CalibrationResult:
     """Calibrate ``network`` (None: the ``auto`` network of the recording) to ``recording``.
 
     ``free``: FreeParameter objects (a mechanism adds its own), or glob patterns over parameter paths
@@ -119,16 +119,18 @@ def calibrate(recording, network: Network | None = None, *,
     (default all that a sensor reads). The search stops on its tolerances or after ``max_evaluations``
     iterations of each start — never on wall-clock time, so the same inputs give the same result however loaded
     the machine is. ``starts`` > 1 adds starts jittered from ``seed``; the lowest cost that leaves no
-    displacement channel worse than the start is kept. ``level`` is the interval confidence; ``intervals=False``
-    skips the final Jacobian. Raises InputError when a calibrated displacement error exceeds the channel's range.
+    displacement channel worse than the start is kept. ``jitter_seed``: the first search starts from the start
+    jittered from this seed (the never-worse guard still compares with the unjittered start), so the spread of
+    results over seeds measures how much a fit depends on where it starts. ``level`` is the interval confidence;
+    ``intervals=False`` skips the final Jacobian. Raises InputError when a calibrated displacement error exceeds the channel's range.
     """
     with _THREADS.limit(limits=1, user_api="blas"):
         return _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-                          max_fit_samples, intervals, progress)
+                          max_fit_samples, intervals, progress, jitter_seed)
 
 
 def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-               max_fit_samples, intervals, progress) -> CalibrationResult:
+               max_fit_samples, intervals, progress, jitter_seed) -> CalibrationResult:
     clock = time.perf_counter()  # reported only; no decision depends on it
     assumptions: tuple[str, ...] = ()
     taus: list[float] = []
@@ -179,7 +181,9 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
     else:
         # weights re-read at the first optimum (the start's misfit is mostly the start's error), then fixed
         # for every start so their costs compare
-        first = search(theta0)
+        first = search(theta0 if jitter_seed is None else np.clip(
+            theta0 + np.random.default_rng(jitter_seed).normal(0.0, 1.0, len(theta0)) * _jitter(problem, lo, hi),
+            lo, hi))
         problem.set_weights(first["theta"])
         r0 = problem.residuals(theta0)
         refined = search(first["theta"])
