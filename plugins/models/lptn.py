@@ -78,13 +78,15 @@ class LPTN(ThermalModel):
     history_length: ClassVar[int | None] = None
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
-                 speed_column: str | None = None, ambient_column: str | None = None, jitter_seed: int | None = None):
+                 speed_column: str | None = None, ambient_column: str | None = None, jitter_seed: int | None = None,
+                 grouped: bool = False):
         self.hidden_nodes = hidden_nodes
         self.max_evaluations = max_evaluations
         self.max_fit_samples = max_fit_samples
         self.speed_column = speed_column
         self.ambient_column = ambient_column
         self.jitter_seed = jitter_seed
+        self.grouped = grouped
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
@@ -109,7 +111,8 @@ class LPTN(ThermalModel):
             channels[name] = Channel(name, "displacement", "um", {})
         recording = Recording(data, channels, source="lptn training data")
         result = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
-                               max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed)
+                               max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed,
+                               grouped=self.grouped)
         self.network_ = result.network
         nodes = {s.name: s.weights for s in self.network_.temperature_sensors}
         self.observer_ = cal.StateObserver(
@@ -190,8 +193,9 @@ class LPTNHybrid(LPTN):
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
                  alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None,
-                 jitter_seed: int | None = None):
-        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column, jitter_seed)
+                 jitter_seed: int | None = None, grouped: bool = False):
+        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column, jitter_seed,
+                         grouped)
         self.alpha = alpha
 
     @classmethod

@@ -111,7 +111,7 @@ def calibrate(recording, network: Network | None = None, *,
               free: Sequence[FreeParameter] | Sequence[str] | None = None, targets: Sequence[str] | None = None,
               hidden_nodes: int = 2, max_evaluations: int = 100, starts: int = 1, seed: int = 0,
               level: float = 0.95, max_fit_samples: int = MAX_FIT_SAMPLES, intervals: bool = True,
-              progress: bool = False, jitter_seed: int | None = None) -> CalibrationResult:
+              progress: bool = False, jitter_seed: int | None = None, grouped: bool = False) -> CalibrationResult:
     """Calibrate ``network`` (None: the ``auto`` network of the recording) to ``recording``.
 
     ``free``: FreeParameter objects (a mechanism adds its own), or glob patterns over parameter paths
@@ -122,20 +122,21 @@ def calibrate(recording, network: Network | None = None, *,
     displacement channel worse than the start is kept. ``jitter_seed``: the first search starts from the start
     jittered from this seed (the never-worse guard still compares with the unjittered start), so the spread of
     results over seeds measures how much a fit depends on where it starts. ``level`` is the interval confidence;
-    ``intervals=False`` skips the final Jacobian. Raises InputError when a calibrated displacement error exceeds the channel's range.
+    ``intervals=False`` skips the final Jacobian. ``grouped``: the auto network with one conductance factor per
+    node group (:func:`auto_network`). Raises InputError when a calibrated displacement error exceeds the channel's range.
     """
     with _THREADS.limit(limits=1, user_api="blas"):
         return _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-                          max_fit_samples, intervals, progress, jitter_seed)
+                          max_fit_samples, intervals, progress, jitter_seed, grouped)
 
 
 def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-               max_fit_samples, intervals, progress, jitter_seed) -> CalibrationResult:
+               max_fit_samples, intervals, progress, jitter_seed, grouped) -> CalibrationResult:
     clock = time.perf_counter()  # reported only; no decision depends on it
     assumptions: tuple[str, ...] = ()
     taus: list[float] = []
     if network is None:
-        auto = auto_network(recording, hidden_nodes=hidden_nodes)
+        auto = auto_network(recording, hidden_nodes=hidden_nodes, grouped=grouped)
         network, default = auto.network, auto.free
         assumptions, taus = auto.assumptions, list(auto.time_constants_s.values())
     else:
