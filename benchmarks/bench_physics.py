@@ -177,7 +177,7 @@ def streaming() -> None:
         start = time.process_time()
         out = np.array([streamer.update(r) for r in items])
         ms = (time.process_time() - start) / len(rows) * 1e3
-        row(f"streaming {name}", f"history_length {factory.history_length}",
+        row(f"streaming {name}", f"history_length {model.history_length}",
             f"{ms:.3f} CPU ms/update, max diff {np.abs(out - batch).max():.1e} µm", "≤ 0.05 ms; ≤ 1e-4 µm")
 
 
