@@ -157,9 +157,10 @@ class LPTN(ThermalModel):
     def streamer(self, history: pd.DataFrame | None = None) -> "_LPTNStreamer":
         return _LPTNStreamer(self, history)
 
-    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
-        """Output for one row given its physics (the hybrid adds its residual model)."""
-        return phys
+    def _row_map(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray]:
+        """(W_x, W_T, w_ambient, c): one streamed row's output is x·W_x + T·W_T + ambient·w_ambient + c for its
+        observed state x and readings T (the hybrid folds its residual model in; None: no such term)."""
+        return self.coef_, None, None, self.intercept_ - self.reference_ @ self.coef_
 
 
 class _LPTNStreamer(Streamer):
@@ -169,7 +170,7 @@ class _LPTNStreamer(Streamer):
         self.model = model
         self.obs = model._fresh()
         self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
-        self.bias = model.intercept_ - model.reference_ @ model.coef_  # displacement = x·coef + bias
+        self.W_x, self.W_T, self.w_ambient, self.c = model._row_map()
         if history is not None and len(history):
             model._observe(self.obs, history)
 
@@ -185,7 +186,12 @@ class _LPTNStreamer(Streamer):
             raise ValueError("a physics model steps its state by time: pass each row as a pandas Series named by "
                              "its time in s (e.g. frame.loc[t])")
         x = self.obs.update(float(time_s), speed, ambient, ambient, temps)
-        return m._correct(temps, ambient, x @ m.coef_ + self.bias)
+        out = x @ self.W_x + self.c
+        if self.W_T is not None:
+            out += temps @ self.W_T
+        if self.w_ambient is not None:
+            out += ambient * self.w_ambient
+        return out
 
 
 class LPTNHybrid(LPTN):
@@ -225,10 +231,14 @@ class LPTNHybrid(LPTN):
         phys = self.physics(X)
         return phys + self._features(X, phys) @ self.res_coef_ + self.res_intercept_
 
-    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
-        n = len(temps)
-        out = phys + temps @ self.res_coef_[:n] + phys @ self.res_coef_[-len(phys):] + self.res_intercept_
-        return out + ambient * self.res_coef_[n] if self.ambient_ else out
+    def _row_map(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray]:
+        # physics p = x·coef + b; output = p + T·R_T + p·R_p + ambient·R_a + r = x·coef(I + R_p) + …
+        coef, _, _, b = super()._row_map()
+        k = coef.shape[1]
+        n = len(self.temperatures_)
+        R_p = np.eye(k) + self.res_coef_[-k:]
+        return (coef @ R_p, self.res_coef_[:n], self.res_coef_[n] if self.ambient_ else None,
+                b @ R_p + self.res_intercept_)
 
 
 @hookimpl
