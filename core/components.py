@@ -128,17 +128,17 @@ class Streamer:
 
     def values(self, row, columns: list[str] | None = None) -> np.ndarray:
         """``row``'s values of ``columns`` (default: the model's inputs) as floats. A Series (``X.iloc[i]``) is
-        read by position, the positions looked up once per columns Index: a label lookup per column would
-        cost more than a linear model's whole prediction."""
+        read by position, the positions looked up once per set of column labels: a label lookup costs more than
+        a linear model's whole prediction. (Each ``X.iloc[i]`` carries a new Index object over the same labels,
+        so the cache compares labels with ``Index.equals``, which is quick when they share their array.)"""
         columns = self.columns if columns is None else columns
         index = getattr(row, "index", None)
         if index is not None and hasattr(row, "to_numpy"):
             cache = self.__dict__.setdefault("_positions", {})
-            key = (id(index), id(columns))
-            if key not in cache:
-                cache.clear()
-                cache[key] = (index, np.asarray(index.get_indexer(columns)))
-            pos = cache[key][1]
+            hit = cache.get(id(columns))
+            if hit is None or not (hit[0] is index or hit[0].equals(index)):
+                hit = cache[id(columns)] = (index, np.asarray(index.get_indexer(columns)), columns)
+            pos = hit[1]
             if (pos >= 0).all():
                 return row.to_numpy(dtype=float)[pos]
         return np.array([float(row[c]) for c in columns])

@@ -44,7 +44,9 @@ def measure(model, frame: pd.DataFrame, rows: np.ndarray, train_seconds: float,
     model.predict(frame.iloc[block], history=history)
     batch_ms = (time.perf_counter() - start) * 1e3 / max(1, len(block))
     streamer = model.streamer(history)
-    records = frame.iloc[block[:stream_rows]].to_dict("records")
+    # rows as a controller passes them: Series named by their time (a physics model steps its state by it)
+    part = frame.iloc[block[:stream_rows]]
+    records = [part.iloc[i] for i in range(len(part))]
     start = time.perf_counter()
     for row in records:
         streamer.update(row)

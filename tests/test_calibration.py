@@ -233,3 +233,22 @@ def test_fit_grid_follows_the_recordings_time_scales_not_its_sampling():
         grids.append((step, len(rows)))
     assert grids[0] == grids[1]  # shortest block 0.5 h / 8 = 225 s, however finely sampled
     assert grids[0][0] == 225.0 and grids[0][1] < 200
+
+
+def test_grouped_conductances_share_one_factor_per_node_group_and_jitter_moves_only_the_start():
+    _, rec = _auto_truth_recording()
+    plain = cal.auto_network(rec, hidden_nodes=1)
+    grouped = cal.auto_network(rec, hidden_nodes=1, grouped=True)
+    names = [p.name for p in grouped.free if p.projected_by is None]
+    # three temperature nodes in three groups, one hidden node with its own conductance, the shared exponent
+    assert sorted(names) == sorted(["G[bearing]×", "G[housing]×", "G[structure]×", "G[hidden_1]", "heat_exponent"])
+    factor = next(p for p in grouped.free if p.name == "G[bearing]×")
+    g_start = {p.paths[0]: p.value for p in plain.free if p.name.startswith("G[")}
+    assert factor.path_values(2.0) == {path: 2.0 * g_start[path] for path in factor.paths}
+    result = cal.calibrate(rec, hidden_nodes=1, grouped=True, intervals=False)
+    assert result.stop == "tolerance" and result.rmse["dz"] <= result.rmse_initial["dz"]
+    # a jittered start searches from elsewhere but the never-worse guard still compares with the plain start
+    plain_fit = cal.calibrate(rec, hidden_nodes=1, intervals=False)
+    jittered = cal.calibrate(rec, hidden_nodes=1, intervals=False, jitter_seed=1)
+    assert jittered.rmse_initial == plain_fit.rmse_initial
+    assert jittered.starts[0]["values"] != plain_fit.starts[0]["values"]

@@ -69,19 +69,24 @@ class LPTN(ThermalModel):
     """Calibrated auto baseline network with a state observer (see the module docstring).
 
     ``hidden_nodes``: unobserved nodes acting on the displacements; ``max_evaluations``: iteration cap of the
-    calibration search; ``max_fit_samples``: cap of its fit grid (samples).
+    calibration search; ``max_fit_samples``: cap of its fit grid (samples); ``jitter_seed``: None starts the
+    calibration at the auto network's start, an int at that start jittered from this seed (to measure how much
+    the model depends on its start).
     """
 
     extra_input_roles: ClassVar[tuple[str, ...]] = ("temperature", "speed", "ambient")
     history_length: ClassVar[int | None] = None
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
-                 speed_column: str | None = None, ambient_column: str | None = None):
+                 speed_column: str | None = None, ambient_column: str | None = None, jitter_seed: int | None = None,
+                 grouped: bool = False):
         self.hidden_nodes = hidden_nodes
         self.max_evaluations = max_evaluations
         self.max_fit_samples = max_fit_samples
         self.speed_column = speed_column
         self.ambient_column = ambient_column
+        self.jitter_seed = jitter_seed
+        self.grouped = grouped
 
     @classmethod
     def get_test_params(cls) -> list[dict[str, Any]]:
@@ -106,7 +111,8 @@ class LPTN(ThermalModel):
             channels[name] = Channel(name, "displacement", "um", {})
         recording = Recording(data, channels, source="lptn training data")
         result = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
-                               max_fit_samples=self.max_fit_samples, intervals=False)
+                               max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed,
+                               grouped=self.grouped)
         self.network_ = result.network
         nodes = {s.name: s.weights for s in self.network_.temperature_sensors}
         self.observer_ = cal.StateObserver(
@@ -134,7 +140,7 @@ class LPTN(ThermalModel):
 
     def _fresh(self) -> cal.StateObserver:
         obs = copy.copy(self.observer_)
-        obs.x, obs._last = None, None
+        obs.x, obs._last, obs._row_key = None, None, None
         return obs
 
     def _observe(self, obs: cal.StateObserver, X: pd.DataFrame) -> np.ndarray:
@@ -151,9 +157,10 @@ class LPTN(ThermalModel):
     def streamer(self, history: pd.DataFrame | None = None) -> "_LPTNStreamer":
         return _LPTNStreamer(self, history)
 
-    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
-        """Output for one row given its physics (the hybrid adds its residual model)."""
-        return phys
+    def _row_map(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray]:
+        """(W_x, W_T, w_ambient, c): one streamed row's output is x·W_x + T·W_T + ambient·w_ambient + c for its
+        observed state x and readings T (the hybrid folds its residual model in; None: no such term)."""
+        return self.coef_, None, None, self.intercept_ - self.reference_ @ self.coef_
 
 
 class _LPTNStreamer(Streamer):
@@ -163,6 +170,7 @@ class _LPTNStreamer(Streamer):
         self.model = model
         self.obs = model._fresh()
         self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
+        self.W_x, self.W_T, self.w_ambient, self.c = model._row_map()
         if history is not None and len(history):
             model._observe(self.obs, history)
 
@@ -178,15 +186,22 @@ class _LPTNStreamer(Streamer):
             raise ValueError("a physics model steps its state by time: pass each row as a pandas Series named by "
                              "its time in s (e.g. frame.loc[t])")
         x = self.obs.update(float(time_s), speed, ambient, ambient, temps)
-        return m._correct(temps, ambient, (x - m.reference_) @ m.coef_ + m.intercept_)
+        out = x @ self.W_x + self.c
+        if self.W_T is not None:
+            out += temps @ self.W_T
+        if self.w_ambient is not None:
+            out += ambient * self.w_ambient
+        return out
 
 
 class LPTNHybrid(LPTN):
     """Physics plus a ridge model (``alpha``) of its training residual on temperatures and physics output."""
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
-                 alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None):
-        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column)
+                 alpha: float = 10.0, speed_column: str | None = None, ambient_column: str | None = None,
+                 jitter_seed: int | None = None, grouped: bool = False):
+        super().__init__(hidden_nodes, max_evaluations, max_fit_samples, speed_column, ambient_column, jitter_seed,
+                         grouped)
         self.alpha = alpha
 
     @classmethod
@@ -216,10 +231,14 @@ class LPTNHybrid(LPTN):
         phys = self.physics(X)
         return phys + self._features(X, phys) @ self.res_coef_ + self.res_intercept_
 
-    def _correct(self, temps: np.ndarray, ambient: float, phys: np.ndarray) -> np.ndarray:
-        n = len(temps)
-        out = phys + temps @ self.res_coef_[:n] + phys @ self.res_coef_[-len(phys):] + self.res_intercept_
-        return out + ambient * self.res_coef_[n] if self.ambient_ else out
+    def _row_map(self) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray]:
+        # physics p = x·coef + b; output = p + T·R_T + p·R_p + ambient·R_a + r = x·coef(I + R_p) + …
+        coef, _, _, b = super()._row_map()
+        k = coef.shape[1]
+        n = len(self.temperatures_)
+        R_p = np.eye(k) + self.res_coef_[-k:]
+        return (coef @ R_p, self.res_coef_[:n], self.res_coef_[n] if self.ambient_ else None,
+                b @ R_p + self.res_intercept_)
 
 
 @hookimpl

@@ -102,14 +102,33 @@ def step_response_start(time_s: np.ndarray, temperature: np.ndarray, speed_rpm: 
     return tau, final / tau * (n_ref / level) ** exponent
 
 
+def _grouped(free: list[FreeParameter], group_of: dict[str, str],
+             g_bounds: tuple[float, float]) -> list[FreeParameter]:
+    """``free`` with the conductances G[node] replaced by one factor per node group (bounds keep every G within
+    ``g_bounds``)."""
+    conductances = [p for p in free if p.name.startswith("G[")]
+    out = [p for p in free if not p.name.startswith("G[")]
+    by_group: dict[str, list[FreeParameter]] = {}
+    for p in conductances:
+        by_group.setdefault(group_of[p.name[2:-1]], []).append(p)
+    for group, members in by_group.items():
+        starts = tuple(p.value for p in members)
+        low, high = max(g_bounds[0] / g for g in starts), min(g_bounds[1] / g for g in starts)
+        out.append(FreeParameter(f"G[{group}]×", tuple(p.paths[0] for p in members), 1.0, min(low, 1.0),
+                                 max(high, 1.0), "1", scales=starts))
+    return out
+
+
 def auto_network(recording, hidden_nodes: int = 2, capacity_J_K: float = AUTO_CAPACITY_J_K,
-                 heat_exponent: float = 1.5) -> AutoBaseline:
+                 heat_exponent: float = 1.5, grouped: bool = False) -> AutoBaseline:
     """The baseline network of ``recording`` from its manifest alone (see the module docstring).
 
     Start values come from each temperature channel's first warm-up (:func:`step_response_start`); hidden
     nodes start with time constants log-spaced over 0.5–4 h. Node groups are guesses for the mechanism library:
     temperature nodes rising ≥ 50 % of the largest rise are ``bearing``, ≥ 10 % ``housing``, else ``structure``;
-    hidden nodes are ``shaft``.
+    hidden nodes are ``shaft``. ``grouped``: the conductances of the temperature nodes of one group share one
+    free factor on their step-response starts (``G[bearing]×`` …; a parameterisation the data can identify
+    where one conductance per node is not), hidden nodes keep one conductance each.
     """
     speed = recording.speed
     if speed is None or not (speed.to_numpy() > 0).any():
@@ -154,6 +173,8 @@ def auto_network(recording, hidden_nodes: int = 2, capacity_J_K: float = AUTO_CA
         channel_nodes[c] = node
         sensors.append(TemperatureSensor(c, node, noise_K=0.0, location=str(recording.channels[c].meta.get(
             "location", ""))))
+    if grouped:
+        free = _grouped(free, {n.name: n.group for n in nodes}, g_bounds)
     for k, tau in enumerate(np.geomspace(0.5, 4.0, hidden_nodes) * 3600.0 if hidden_nodes > 1 else
                             [1.5 * 3600.0] * hidden_nodes):
         add_node(f"hidden_{k + 1}", "shaft", float(tau), 1.0 / float(tau), heat_free=None)

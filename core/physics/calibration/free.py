@@ -23,7 +23,8 @@ class FreeParameter:
     ``value`` is the start, ``low``/``high`` the bounds (same unit). ``log=True`` searches log(value) (needs
     0 < low), so steps and intervals are relative; ``log=False`` searches the value itself (signed parameters).
     ``projected_by``: a temperature channel whose reading is linear in this heat amplitude; the search then
-    solves it by linear least squares instead (only the ``auto`` network sets it).
+    solves it by linear least squares instead (only the ``auto`` network sets it). ``scales``: the value is a
+    factor and path k takes ``value × scales[k]`` (grouped parameters, :meth:`path_values`).
     """
 
     name: str
@@ -34,6 +35,14 @@ class FreeParameter:
     unit: str = ""
     log: bool = True
     projected_by: str | None = None
+    scales: tuple[float, ...] = ()
+
+    def path_values(self, value: float) -> dict[str, float]:
+        """Network value per path: ``value`` on every path, or ``value × scales[k]`` on path k when ``scales`` is
+        set (one factor shared by a group of parameters, each keeping its own start value)."""
+        if self.scales:
+            return {path: value * k for path, k in zip(self.paths, self.scales)}
+        return {path: value for path in self.paths}
 
     def __post_init__(self):
         if not self.low <= self.value <= self.high or (self.log and self.low <= 0):

@@ -179,7 +179,7 @@ class Problem:
 
     def network_at(self, theta: np.ndarray, heat: Mapping[str, float] | None = None) -> Network:
         """The network at θ with projected heat amplitudes at ``heat`` (default 1 W each, the unit response)."""
-        values = {path: p.from_search(v) for p, v in zip(self.free, theta) for path in p.paths}
+        values = {path: x for p, v in zip(self.free, theta) for path, x in p.path_values(p.from_search(v)).items()}
         values.update({path: (heat or {}).get(p.name, 1.0) for p in self.projected.values() for path in p.paths})
         return set_values(self.network, values)
 

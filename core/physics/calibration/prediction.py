@@ -90,6 +90,7 @@ class StateObserver:
         self._levels: dict[tuple, tuple] = {}
         self.x: np.ndarray | None = None
         self._last: tuple | None = None  # (time s, speed rpm, ambient °C, coolant °C) of the last row
+        self._row_key: tuple | None = None  # (speed, dt) of the stacked one-row matrix below
 
     def _level(self, speed: float, coolant_flow: float, dt: float) -> tuple:
         """(F = (I − KC)Φ, G = (I − KC)Γ, K) of one level, cached."""
@@ -151,16 +152,23 @@ class StateObserver:
 
     def update(self, time_s: float, speed: float, ambient: float, coolant: float,
                temperatures: np.ndarray) -> np.ndarray:
-        """One row: the filtered node temperatures (°C) at it."""
+        """One row: the filtered node temperatures (°C) at it, as one matrix-vector product
+        [F | K | G₀ − K·offsets | G_ambient | G_coolant] · [x; y; 1; ambient; coolant], the matrix stacked once per
+        level (at this size numpy's per-call overhead, not arithmetic, is the cost of a row)."""
         if self.x is None:
             self.x = self.start(speed, ambient, coolant, temperatures)
         else:
             t0, sp0, amb0, cool0 = self._last
-            F, G, K = self._level(sp0, 1.0, round(time_s - t0, 9))
-            x = F @ self.x + G[:, 0] + amb0 * G[:, 1] + cool0 * G[:, 2]
-            if K.shape[1]:
-                x = x + K @ (temperatures - self.offsets)
-            self.x = x
+            key = (sp0, round(time_s - t0, 9))
+            if key != self._row_key:
+                F, G, K = self._level(sp0, 1.0, key[1])
+                constant = G[:, 0] - K @ self.offsets
+                self._row_key = key
+                self._row_matrix = np.hstack([F, K, constant[:, None], G[:, 1:3]])
+                self._row_input = np.ones(self._row_matrix.shape[1])
+            v, n, m = self._row_input, len(self.x), len(temperatures)
+            v[:n], v[n:n + m], v[-2], v[-1] = self.x, temperatures, amb0, cool0
+            self.x = self._row_matrix @ v
         self._last = (time_s, speed, ambient, coolant)
         return self.x
 
