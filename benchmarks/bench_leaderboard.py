@@ -32,7 +32,7 @@ CHANNELS = ["ch1(um)", "ch2(um)", "ch3(um)", "ch4(um)", "ch5(um)"]
 MODELS = {"persistence": 1, "mlr": 10, "mnr": 10, "transfer_function": 10, "bp": 4, "lstm": 3, "pso_bpnn": 2,
           "lptn_hybrid": 1}
 # fixed parameters at the default size (the default budget has to fit in about 15 minutes on 2 shared cores)
-PARAMS = {"lstm": {"epochs": 60, "t0": 20}, "pso_bpnn": {"swarm_size": 10, "pso_iterations": 10}}
+PARAMS = {"lstm": {"trainer": {"epochs": 60, "t0": 20}}, "pso_bpnn": {"swarm_size": 10, "pso_iterations": 10}}
 SPLIT = {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}
 
 

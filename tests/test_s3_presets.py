@@ -40,7 +40,7 @@ def test_each_arm_builds_its_job(arm):
     model = registry.create("model", spec.model, **spec.model_params)  # every arm's params build its model
     assert model.trainer_settings().epochs == 30
     if spec.model == "lstm":  # S3's learning-rate range and LSTM size, not S1's
-        assert spec.model_search_space["lr_max"]["high"] == 0.01
+        assert spec.model_search_space["trainer__lr_max"]["high"] == 0.01
         assert spec.model_search_space["hidden_units"] == {"type": "int", "low": 32, "high": 128}
 
 
