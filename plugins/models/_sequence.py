@@ -81,7 +81,7 @@ class SequenceModel(TorchThermalModel):
                        resolve_device(self.trainer_settings().device))
 
     def __getstate__(self):
-        state = super().__getstate__()
+        state = dict(super().__getstate__())  # a copy: object.__getstate__ returns the instance's own __dict__
         state.pop("_network_cache", None)
         return state
 
