@@ -167,6 +167,7 @@ def s3_efficiency(rows: pd.DataFrame) -> pd.DataFrame:
     part = _comparison_rows(rows)
     part = part[part["tuned"]]
     out = part.groupby(["protocol", "split", "source"], sort=False)[list(EFFICIENCY)].mean().reset_index()
+    out["n_parameters"] = out["n_parameters"].round().astype("Int64")
     return out.rename(columns=EFFICIENCY).reset_index(drop=True)
 
 
@@ -176,6 +177,7 @@ def s3_ablation(rows: pd.DataFrame) -> pd.DataFrame:
     part = rows[rows["tuned"] & rows["ablation"].isin(S3_ABLATIONS)]
     cols = list(S3_METRICS) + ["n_parameters", "train_s"]
     out = part.groupby(["protocol", "split", "ablation", "source"], sort=False)[cols].mean().reset_index()
+    out["n_parameters"] = out["n_parameters"].round().astype("Int64")
     out["order"] = out["ablation"].map(S3_ABLATIONS.index)
     out = out.sort_values(["protocol", "split", "order"], kind="stable").drop(columns="order")
     return out.rename(columns={**S3_METRICS, **EFFICIENCY}).reset_index(drop=True)
