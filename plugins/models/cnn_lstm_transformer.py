@@ -32,7 +32,8 @@ class CNNLSTMTransformer(SequenceModel):
 
     @classmethod
     def get_test_params(cls):
-        return [{"channels": 4, "hidden_size": 8, "heads": 2, "window": 4, "trainer": {"epochs": 4, "t0": 2, "batch_size": 64}}]
+        return [{"channels": 4, "hidden_size": 8, "heads": 2, "window": 4,
+                 "trainer": {"epochs": 4, "t0": 2, "batch_size": 64}}]
 
     @classmethod
     def search_space(cls):

@@ -31,7 +31,8 @@ class TCNLSTM(SequenceModel):
 
     @classmethod
     def get_test_params(cls):
-        return [{"channels": 4, "levels": 1, "hidden_size": 8, "window": 4, "trainer": {"epochs": 4, "t0": 2, "batch_size": 64}}]
+        return [{"channels": 4, "levels": 1, "hidden_size": 8, "window": 4,
+                 "trainer": {"epochs": 4, "t0": 2, "batch_size": 64}}]
 
     @classmethod
     def search_space(cls):
