@@ -1,4 +1,4 @@
-"""Leaderboard on real data: every S1/S2 model and the references on FL_THERMAL with the 5000 rpm run held out.
+"""Leaderboard on real data: every S1/S2/S3 model and the references on FL_THERMAL with the 5000 rpm run held out.
 
 The protocol is ``experiment=fl_thermal_5000rpm_heldout`` (train t < 24.13 h: the 1250-3750 rpm runs with their
 cool-downs; test 24.13-32.13 h: the 5000 rpm run and its cool-down), the sensors chosen by the experiment's
@@ -30,9 +30,11 @@ from thermodrift.core.study import Job, JobSpec
 CHANNELS = ["ch1(um)", "ch2(um)", "ch3(um)", "ch4(um)", "ch5(um)"]
 # model -> trials at the default size (models without a search space run once)
 MODELS = {"persistence": 1, "mlr": 10, "mnr": 10, "transfer_function": 10, "bp": 4, "lstm": 3, "pso_bpnn": 2,
-          "lptn_hybrid": 1}
+          "lptn_hybrid": 1, "cnn_lstm": 2, "ma_cnn": 2, "cnn_lstm_transformer": 2, "tcn_lstm": 2, "dltk": 2}
+S3_NETS = ("cnn_lstm", "ma_cnn", "cnn_lstm_transformer", "tcn_lstm", "dltk")
 # fixed parameters at the default size (the default budget has to fit in about 15 minutes on 2 shared cores)
-PARAMS = {"lstm": {"epochs": 60, "t0": 20}, "pso_bpnn": {"swarm_size": 10, "pso_iterations": 10}}
+PARAMS = {"lstm": {"trainer": {"epochs": 60, "t0": 20}}, "pso_bpnn": {"swarm_size": 10, "pso_iterations": 10},
+          **{name: {"trainer": {"epochs": 30}} for name in S3_NETS}}
 SPLIT = {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}
 
 
@@ -93,7 +95,8 @@ def report(table: pd.DataFrame, args) -> str:
         "test on 24.13–32.13 h (the 5000 rpm run, a speed never seen in training, and its cool-down). Sensors: "
         "`correlation_top_k` (k = 4) on the training part; channels ch1–ch5 modelled together; each model tuned by "
         "TPE on the inner validation fold (trials as listed; `--trials-scale` multiplies them; at the default size "
-        "lstm trains at most 60 epochs and pso_bpnn's swarm is 10 x 10, a scale above 1 restores their defaults). "
+        "lstm trains at most 60 epochs, the S3 networks (cnn_lstm ... dltk) 30, and pso_bpnn's swarm is "
+        "10 x 10; a scale above 1 restores their defaults). "
         "Errors in µm on the "
         f"held-out part, seed {args.seed}; sorted by the mean RMSE over the channels. "
         "`persistence` reads the previous measured displacement, which a machine in production does not have: it "

@@ -65,9 +65,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{'RMSE µm':>9s}{'MAE µm':>8s}{'R2':>7s}")
     print(head)
     for name in args.models:
-        factory = registry.get("model", name).factory
-        key = "device" if registry.accepts(factory, "device") else "trainer__device"  # bp: a trainer setting
-        params = {key: args.device} if key == "device" or registry.accepts(factory, "trainer") else {}
+        params = {"trainer__device": args.device} if registry.accepts(registry.get("model", name).factory,
+                                                                     "trainer") else {}
         r = measure(name, rec, list(X.columns), y, cut, params)
         print(f"{name:22s}{r['train_s']:9.1f}{r['train_cpu_s']:7.1f}{r['epochs']:7d}{r['n_parameters']:9.0f}"
               f"{r['latency_batch_ms']:17.4f}"

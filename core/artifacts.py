@@ -83,7 +83,8 @@ def save(model: Any, name: str, folder: str | Path) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     writer = _Writer()
     params = model.get_params(deep=False)
-    state = {k: v for k, v in vars(model).items() if k not in params}
+    # the pickling contract (__getstate__): what a class leaves out of pickles, such as a cache, stays out here
+    state = {k: v for k, v in model.__getstate__().items() if k not in params}
     doc = {"format": FORMAT, "name": name, "params": writer.encode(params), "state": writer.encode(state)}
     (folder / "model.json").write_text(json.dumps(doc), encoding="utf-8")
     np.savez(folder / "arrays.npz", **writer.arrays)

@@ -9,6 +9,12 @@ with its defaults on the same rows. The studies' tables are views of it:
 * :func:`s2_table` — S2's analogue: mean relative error % and residual variance (µm²) per held-out block
   (S2's "inside the training range" and "beyond it" are the blocks of its paper protocols).
 * :func:`grid_summary` — the held-out RMSE, MAE and max |e| of every job's model beside its baselines.
+* S3's tables, written only for sweeps they apply to: :func:`s3_table13` (RMSE, MSE, MAE, R², EV, VAF per
+  protocol, split and source; sweeps with a ``dltk`` job), :func:`s3_rmse_reduction` (DLTK's RMSE reduction
+  against every other source, BP, LSTM and TCN-LSTM first), :func:`s3_efficiency` (Table 14: training s, latency
+  per sample in a batch and per one-sample call, parameters), :func:`s3_ablation` (jobs tagged ``ablation=``
+  full, no_deform, ...) and :func:`s3_table16` (the selector's inner optimizers: best |r| and the iteration it
+  was first reached; sweeps over two or more of them).
 * :func:`runs_table` / :func:`format_table` — the table a grid prints at its end: one line per job run with its
   components, held-out RMSE per target (µm) with the MLR and persistence baselines beside it, and wall time.
 
@@ -26,7 +32,11 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 
-METRICS = ("rmse", "mse", "mae", "max_abs_error", "mean_error", "relative_error_pct", "r2")
+METRICS = ("rmse", "mse", "mae", "max_abs_error", "mean_error", "relative_error_pct", "r2", "explained_variance",
+           "vaf")
+EFFICIENCY = {"train_s": "training s", "latency_batch_ms": "ms per sample (batch)",
+              "latency_stream_ms": "ms per one-sample call", "n_parameters": "parameters"}
+SELECTOR_METRICS = ("best_fitness", "best_iteration")  # a selector's ``metrics_`` (hdbscan_pso: S3 Table 16)
 S1_COLUMNS = {"relative_error_pct": "relative error %", "mae": "mean residual µm", "mse": "MSE µm²",
               "max_abs_error": "max residual µm"}
 
@@ -61,17 +71,22 @@ def collect(client, parent_id: str) -> pd.DataFrame:
         if split_params:  # two configs of one split kind (S1's 360/60 and 80/20) stay apart
             split = f"{split} ({', '.join(f'{k}={v}' for k, v in split_params.items())})"
         base = {"run_id": run.info.run_id, **{t: tags.get(t) for t in ("dataset", "model", "optimizer",
-                                                                        "selector", "protocol")}, "split": split,
-                "selected_sensors": params.get("selected_sensors", "")}
+                                                                        "selector", "protocol", "ablation")},
+                "split": split, "selected_sensors": params.get("selected_sensors", ""),
+                "selector_optimizer": params.get("selector.params.optimizer"),
+                **{f"selector_{m}": metrics.get(f"selector/{m}", np.nan) for m in SELECTOR_METRICS}}
+        cost = {k: metrics.get(f"efficiency/{k}", np.nan) for k in EFFICIENCY}  # the job's model only
         for k in folds:
             prefixes = {f"{tags.get('model')} ({tags.get('optimizer')})": f"fold{k}/test/"}
             for key in metrics:
                 if key.startswith(f"fold{k}/baseline/") and key.endswith("/test/rmse"):
                     prefixes[key.split("/")[2]] = key.removesuffix("rmse")
             for source, prefix in prefixes.items():
+                tuned = prefix == f"fold{k}/test/"
                 rows.append({**base, "fold": k, "fold_name": params.get(f"fold{k}/name", f"fold {k}"),
-                             "source": source, "tuned": prefix == f"fold{k}/test/",
-                             **{m: metrics.get(prefix + m, np.nan) for m in METRICS}})
+                             "source": source, "tuned": tuned,
+                             **{m: metrics.get(prefix + m, np.nan) for m in METRICS},
+                             **{c: v if tuned else np.nan for c, v in cost.items()}})
     table = pd.DataFrame(rows)
     if table.empty:
         raise InputError(f"run {parent_id} has no finished job runs with per-fold metrics",
@@ -105,13 +120,92 @@ def grid_summary(rows: pd.DataFrame) -> pd.DataFrame:
     return rows.groupby(keys, sort=False)[["rmse", "mae", "max_abs_error", "r2"]].mean().reset_index()
 
 
+S3_METRICS = {"rmse": "RMSE µm", "mse": "MSE µm²", "mae": "MAE µm", "r2": "R²", "explained_variance": "EV",
+              "vaf": "VAF %"}
+S3_ABLATIONS = ("full", "no_deform", "no_lstm", "no_transformer", "no_kan")
+S3_REDUCTION_FIRST = ("bp", "lstm", "tcn_lstm")  # S3 reports DLTK's RMSE reduction against these
+
+
+def _comparison_rows(rows: pd.DataFrame) -> pd.DataFrame:
+    """The rows of a comparison sweep with a ``dltk`` job (ablation children left out), else none."""
+    plain = rows[~rows["ablation"].isin(S3_ABLATIONS)]
+    return plain if (plain["tuned"] & (plain["model"] == "dltk")).any() else plain.iloc[:0]
+
+
+def s3_table13(rows: pd.DataFrame) -> pd.DataFrame:
+    """S3 Table 13/15 analogue: fold-mean RMSE, MSE, MAE (µm), R², EV and VAF % per protocol, split and source,
+    best RMSE first; a baseline evaluated in several jobs on the same rows is averaged over them."""
+    part = _comparison_rows(rows)
+    out = part.groupby(["protocol", "split", "source"], sort=False)[list(S3_METRICS)].mean().reset_index()
+    return out.sort_values(["protocol", "split", "rmse"], kind="stable").rename(columns=S3_METRICS) \
+        .reset_index(drop=True)
+
+
+def s3_rmse_reduction(rows: pd.DataFrame) -> pd.DataFrame:
+    """DLTK's RMSE reduction % against every other source per protocol and split: 100 (1 − RMSE_dltk / RMSE_other);
+    BP, LSTM and TCN-LSTM (S3's comparison) first."""
+    part = _comparison_rows(rows)
+    out = []
+    for (protocol, split), block in part.groupby(["protocol", "split"], sort=False):
+        dltk = block[block["tuned"] & (block["model"] == "dltk")]
+        if dltk.empty:
+            continue
+        ours = dltk["rmse"].mean()
+        means = block.groupby("source", sort=False)["rmse"].mean().drop(dltk["source"].unique())
+        models = block[block["tuned"]].groupby("source")["model"].first()
+        first = [s for m in S3_REDUCTION_FIRST for s in models.index[models == m] if s in means.index]
+        for source in first + [s for s in means.index if s not in first]:
+            out.append({"protocol": protocol, "split": split, "DLTK": dltk["source"].iloc[0], "against": source,
+                        "RMSE µm": means[source], "DLTK RMSE µm": ours,
+                        "RMSE reduction %": 100.0 * (1.0 - ours / means[source])})
+    return pd.DataFrame(out)
+
+
+def s3_efficiency(rows: pd.DataFrame) -> pd.DataFrame:
+    """S3 Table 14 analogue: each job's refit model: training s, inference ms per sample (batch and one sample per
+    call), parameter count, per protocol and split."""
+    part = _comparison_rows(rows)
+    part = part[part["tuned"]]
+    out = part.groupby(["protocol", "split", "source"], sort=False)[list(EFFICIENCY)].mean().reset_index()
+    out["n_parameters"] = out["n_parameters"].round().astype("Int64")
+    return out.rename(columns=EFFICIENCY).reset_index(drop=True)
+
+
+def s3_ablation(rows: pd.DataFrame) -> pd.DataFrame:
+    """S3's ablation table: the jobs tagged ``ablation=full, no_deform, no_lstm, no_transformer, no_kan`` (fold
+    means of the model's held-out metrics, its parameter count and training s)."""
+    part = rows[rows["tuned"] & rows["ablation"].isin(S3_ABLATIONS)]
+    cols = list(S3_METRICS) + ["n_parameters", "train_s"]
+    out = part.groupby(["protocol", "split", "ablation", "source"], sort=False)[cols].mean().reset_index()
+    out["n_parameters"] = out["n_parameters"].round().astype("Int64")
+    out["order"] = out["ablation"].map(S3_ABLATIONS.index)
+    out = out.sort_values(["protocol", "split", "order"], kind="stable").drop(columns="order")
+    return out.rename(columns={**S3_METRICS, **EFFICIENCY}).reset_index(drop=True)
+
+
+def s3_table16(rows: pd.DataFrame) -> pd.DataFrame:
+    """S3 Table 16 analogue: the selector's inner optimizers on the selection task (best |Pearson r| of a cluster
+    with the error, the iteration it was first reached, the chosen sensors), per protocol and split; written for
+    sweeps that compare two or more of them."""
+    part = rows.dropna(subset=["selector_best_fitness"]).drop_duplicates("run_id")
+    if part["selector_optimizer"].nunique() < 2:
+        return part.iloc[:0, :0]
+    cols = {"selector_best_fitness": "best correlation", "selector_best_iteration": "reached at iteration",
+            "selected_sensors": "sensors"}
+    out = part[["protocol", "split", "selector", "selector_optimizer", *cols]].drop_duplicates()
+    out["selector_best_iteration"] = out["selector_best_iteration"].round().astype(int)
+    out = out.sort_values(["protocol", "split", "selector_best_fitness"], ascending=[True, True, False],
+                          kind="stable")
+    return out.rename(columns={"selector_optimizer": "optimizer", **cols}).reset_index(drop=True)
+
+
 def markdown(table: pd.DataFrame, digits: int = 3) -> str:
     """A GitHub Markdown table (written here to avoid a dependency on ``tabulate`` for one small format)."""
     def cell(v) -> str:
         if isinstance(v, (float, np.floating)):
             return "–" if not np.isfinite(v) else f"{v:.{digits}f}"
         return str(v).replace("|", "\\|")
-    head = "| " + " | ".join(map(str, table.columns)) + " |"
+    head = "| " + " | ".join(str(c).replace("|", "\\|") for c in table.columns) + " |"
     rule = "|" + "|".join("---" for _ in table.columns) + "|"
     body = ["| " + " | ".join(cell(v) for v in row) + " |" for row in table.itertuples(index=False)]
     return "\n".join([head, rule, *body]) + "\n"
@@ -119,16 +213,24 @@ def markdown(table: pd.DataFrame, digits: int = 3) -> str:
 
 TABLES = {"s1_table7": ("S1 Table 7 analogue (held-out, fold means)", s1_table),
           "s2_mre": ("S2 analogue: mean relative error inside and beyond the training range", s2_table),
-          "grid_summary": ("Grid summary", grid_summary)}
+          "grid_summary": ("Grid summary", grid_summary),
+          "s3_table13": ("S3 Table 13/15 analogue (held-out, fold means)", s3_table13),
+          "s3_rmse_reduction": ("S3: DLTK's RMSE reduction against the other sources", s3_rmse_reduction),
+          "s3_efficiency": ("S3 Table 14 analogue: efficiency of each job's refit model", s3_efficiency),
+          "s3_ablation": ("S3 ablation of DLTK (held-out, fold means)", s3_ablation),
+          "s3_table16": ("S3 Table 16 analogue: the selector's optimizers on the selection task", s3_table16)}
 
 
 def write(rows: pd.DataFrame, folder: str | os.PathLike, title: str = "") -> dict[str, Path]:
-    """Write every table of :data:`TABLES` as ``<name>.md`` and ``<name>.csv`` plus ``report.md`` into ``folder``."""
+    """Write every non-empty table of :data:`TABLES` as ``<name>.md`` and ``<name>.csv`` plus ``report.md`` into
+    ``folder``."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths, parts = {}, [f"# {title or 'thermodrift report'}\n"]
     for name, (heading, build) in TABLES.items():
         table = build(rows)
+        if table.empty:  # a study's table that does not apply to this sweep
+            continue
         paths[f"{name}.csv"] = folder / f"{name}.csv"
         table.to_csv(paths[f"{name}.csv"], index=False)
         text = markdown(table)

@@ -271,7 +271,8 @@ class Job:
                 raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
                                  f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
             tuned = study.best_params
-            best = {**spec.model_params, **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}}
+            best = _nested({**spec.model_params,
+                            **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}})
             valid = float(study.best_value)
             if sel_space:  # the best trial's selector parameters, refitted on the whole training part
                 selector = fit_selector({k.removeprefix(SELECTOR_PREFIX): v for k, v in tuned.items()
@@ -366,6 +367,17 @@ def predict_rows(model, frame: pd.DataFrame, rows: np.ndarray, allowed: np.ndarr
         begin = int(gaps[-1]) + 1 if len(gaps) else 0
         out.append(model.predict(frame.iloc[block], history=frame.iloc[begin:start]))
     return np.concatenate(out)
+
+
+def _nested(params: dict[str, Any]) -> dict[str, Any]:
+    """Tuned nested names (``trainer__lr_max``) folded into their dict parameter (``trainer``), so the best
+    parameters state each value once."""
+    out = dict(params)
+    for key in [k for k in out if "__" in k]:
+        outer, inner = key.split("__", 1)
+        if isinstance(out.get(outer), dict):
+            out[outer] = {**out[outer], inner: out.pop(key)}
+    return out
 
 
 def _with_seed(factory: Callable, params: dict, seed: int) -> dict:

@@ -124,7 +124,8 @@ def start_job_run(run_name: str, tags: dict[str, str]) -> mlflow.ActiveRun:
 def log_result(result, params: dict[str, Any]) -> None:
     """Log a :class:`~thermodrift.core.study.JobResult` into the active run: config params, the recording as a
     dataset input, the Optuna studies (tags ``optuna.study``, ``optuna.storage``), held-out metrics of the model
-    and baselines (mean over targets and per target), figures and the last fold's refit model."""
+    and baselines (mean over targets and per target), the model's efficiency and the selector's ``metrics_``
+    (fold means), figures and the last fold's refit model."""
     mlflow.log_params({k: _short(v) for k, v in flatten(params).items()})
     mlflow.log_param("selected_sensors", ",".join(result.selected))
     studies = [f.study.study_name for f in result.folds if f.study is not None]
@@ -159,6 +160,9 @@ def log_result(result, params: dict[str, Any]) -> None:
             metrics[metric_key("skill_vs", base)] = 1.0 - metrics["test/rmse"] / ref
     for key in result.folds[-1].efficiency:  # S3 Table 14: training s, latency ms per sample, parameter count
         metrics[metric_key("efficiency", key)] = float(np.mean([f.efficiency.get(key, np.nan) for f in result.folds]))
+    selector_metrics = [getattr(f.selector, "metrics_", None) or {} for f in result.folds]
+    for key in selector_metrics[-1]:  # a selector's own scalars (S3 Table 16: best |r|, the iteration it came)
+        metrics[metric_key("selector", key)] = float(np.mean([m.get(key, np.nan) for m in selector_metrics]))
     mlflow.log_metrics({k: v for k, v in metrics.items() if np.isfinite(v)})
     mlflow.log_params({f"best/{k}": _short(v) for k, v in result.best_params.items()})
     with tempfile.TemporaryDirectory() as tmp:

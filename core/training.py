@@ -439,13 +439,8 @@ class TorchThermalModel(ThermalModel):
         return X.to_numpy(dtype=float)
 
     def trainer_settings(self) -> TrainerSettings:
-        """The class's ``trainer_defaults`` with this model's ``trainer`` overrides applied.
-
-        Models written before the ``trainer`` parameter state trainer fields (``lr_max``, ``epochs``, ...) as
-        constructor parameters of their own; those are read too, and ``trainer`` overrides them.
-        """
-        own = {k: v for k, v in ThermalModel.get_params(self, deep=False).items() if k in _TRAINER_FIELDS}
-        overrides = {**own, **_overrides(getattr(self, TRAINER, None))}
+        """The class's ``trainer_defaults`` with this model's ``trainer`` overrides applied."""
+        overrides = _overrides(getattr(self, TRAINER, None))
         unknown = sorted(set(overrides) - _TRAINER_FIELDS)
         if unknown:
             raise ValueError(f"unknown trainer settings {unknown}; known: {', '.join(sorted(_TRAINER_FIELDS))}")

@@ -9,7 +9,7 @@ from thermodrift.plugins.models.transfer_function import TransferFunction
 from thermodrift.testing.data import tiny_recording
 
 CASES = [("transfer_function", TransferFunction, {}),
-         ("lstm", LSTM, {"hidden_units": 4, "epochs": 20, "t0": 5, "window": 5})]
+         ("lstm", LSTM, {"hidden_units": 4, "window": 5, "trainer": {"epochs": 20, "t0": 5}})]
 
 
 @pytest.mark.parametrize("name,cls,params", CASES, ids=[c[0] for c in CASES])

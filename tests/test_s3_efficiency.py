@@ -9,8 +9,8 @@ from thermodrift.core.study import Job, JobSpec
 from thermodrift.testing.data import tiny_recording
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
-DLTK_TINY = dict(channels=4, hidden_size=8, heads=2, kan_grid=2, window=4, epochs=4, t0=2, batch_size=64,
-                 device="cpu")
+DLTK_TINY = dict(channels=4, hidden_size=8, heads=2, kan_grid=2, window=4,
+                 trainer=dict(epochs=4, t0=2, batch_size=64, device="cpu"))
 
 
 def test_a_job_records_the_refit_models_costs():

@@ -12,7 +12,7 @@ from thermodrift.testing.data import tiny_frames
 
 pytestmark = pytest.mark.usefixtures("one_torch_thread")
 S3_MODELS = ["cnn_lstm", "ma_cnn", "cnn_lstm_transformer", "tcn_lstm", "dltk"]
-TINY = dict(window=6, epochs=6, t0=2, batch_size=64, device="cpu")
+TINY = dict(window=6, trainer=dict(epochs=6, t0=2, batch_size=64, device="cpu"))
 SMALL = {"cnn_lstm": dict(channels=4, hidden_size=8), "ma_cnn": dict(channels=6),
          "cnn_lstm_transformer": dict(channels=4, hidden_size=8, heads=2), "tcn_lstm": dict(channels=4, hidden_size=8),
          "dltk": dict(channels=4, hidden_size=8, heads=2, kan_grid=2)}
@@ -71,7 +71,7 @@ def test_the_deformable_convolution_starts_as_a_plain_convolution_and_learns_off
 def test_dltk_learns_the_drift():
     X, y = tiny_frames()
     y = y[["disp_z_um"]]
-    model = DLTK(**SMALL["dltk"], window=6, epochs=60, t0=10, batch_size=32, lr_max=1e-2, patience=None,
-                 device="cpu")
+    model = DLTK(**SMALL["dltk"], window=6,
+                 trainer=dict(epochs=60, t0=10, batch_size=32, lr_max=1e-2, patience=None, device="cpu"))
     rmse = np.sqrt(np.mean((model.fit(X, y).predict(X) - y.to_numpy()) ** 2))
     assert rmse < 0.3 * y.to_numpy().std(), (rmse, y.to_numpy().std())

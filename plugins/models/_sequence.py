@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from thermodrift.core.training import TorchThermalModel
+from thermodrift.core.training import TorchThermalModel, TrainerSettings, trainer_search_space
 
 if TYPE_CHECKING:
     from torch import nn
@@ -30,25 +30,27 @@ def windows(x: np.ndarray, window: int) -> np.ndarray:
 
 
 def s3_search_space() -> dict[str, dict[str, Any]]:
-    """S3's search space: learning rate 1e-5..1e-2, dropout, loss in {rmse, mse, mae} (models add their sizes)."""
+    """S3's search space: learning rate 1e-5..1e-2 (``trainer__lr_max``), dropout, loss in {rmse, mse, mae}
+    (``trainer__loss``); models add their sizes."""
     return {
-        "lr_max": {"type": "float", "low": 1e-5, "high": 1e-2, "log": True},
+        "trainer__lr_max": {**trainer_search_space()["trainer__lr_max"], "low": 1e-5, "high": 1e-2},
         "dropout": {"type": "float", "low": 0.0, "high": 0.5},
-        "loss": {"type": "categorical", "choices": ["rmse", "mse", "mae"]},
+        "trainer__loss": {"type": "categorical", "choices": ["rmse", "mse", "mae"]},
     }
-
-
-# Constructor defaults are sized for a CPU (window 16, 60 epochs, batches of 128): DLTK's fit on 3,277 rows of the
-# S3 recording takes 40 CPU-seconds on one core (benchmarks/bench_s3_models.py).
 
 
 class SequenceModel(TorchThermalModel):
     """Base of the windowed torch models: ``window`` rows in, one displacement row (µm) out per target.
 
-    Subclasses store their constructor parameters (their own plus ``window``, ``dropout`` and the trainer fields
-    ``lr_max``, ``loss``, ``epochs``, ``batch_size``, ``t0``, ``t_mult``, ``patience``, ``weight_decay``,
-    ``random_state``, ``device``) and implement ``_network(n_inputs, n_outputs)`` taking (batch, window, inputs).
+    Subclasses store their constructor parameters (their own plus ``window``, ``dropout``, ``trainer`` and
+    ``random_state``, see :class:`~thermodrift.core.training.TorchThermalModel`) and implement
+    ``_network(n_inputs, n_outputs)`` taking (batch, window, inputs).
     """
+
+    # Sized for a CPU (window 16, at most 60 epochs, batches of 128): DLTK's fit on 3,277 rows of the S3 recording
+    # takes 40 CPU-seconds on one core (benchmarks/bench_s3_models.py).
+    trainer_defaults = TrainerSettings(lr_max=3e-3, weight_decay=1e-4, epochs=60, batch_size=128, t0=10, t_mult=2,
+                                       patience=3, loss="mse")
 
     @property
     def history_length(self) -> int:  # type: ignore[override]  # depends on the window parameter
@@ -79,7 +81,7 @@ class SequenceModel(TorchThermalModel):
                        resolve_device(self.trainer_settings().device))
 
     def __getstate__(self):
-        state = super().__getstate__()
+        state = dict(super().__getstate__())  # a copy: object.__getstate__ returns the instance's own __dict__
         state.pop("_network_cache", None)
         return state
 

@@ -16,31 +16,21 @@ if TYPE_CHECKING:
 
 
 class CNNLSTM(SequenceModel):
-    """See the module docstring. Trainer fields (``lr_max``, ``loss``, ``epochs``, ...) as in ``bp``."""
+    """See the module docstring. ``trainer`` and ``random_state`` as in ``SequenceModel``."""
 
     def __init__(self, channels: int = 16, kernel: int = 3, hidden_size: int = 32,
-                 window: int = 16, dropout: float = 0.1, lr_max: float = 3e-3, loss: str = "mse", epochs: int = 60,
-                 batch_size: int | None = 128, t0: int = 10, t_mult: int = 2, patience: int | None = 3,
-                 weight_decay: float = 1e-4, random_state: int = 0, device: str = "auto"):
+                 window: int = 16, dropout: float = 0.1, trainer: dict | None = None, random_state: int = 0):
         self.channels = channels
         self.kernel = kernel
         self.hidden_size = hidden_size
         self.window = window
         self.dropout = dropout
-        self.lr_max = lr_max
-        self.loss = loss
-        self.epochs = epochs
-        self.batch_size = batch_size
-        self.t0 = t0
-        self.t_mult = t_mult
-        self.patience = patience
-        self.weight_decay = weight_decay
+        self.trainer = trainer
         self.random_state = random_state
-        self.device = device
 
     @classmethod
     def get_test_params(cls):
-        return [{"channels": 4, "hidden_size": 8, "window": 4, "epochs": 4, "t0": 2, "batch_size": 64}]
+        return [{"channels": 4, "hidden_size": 8, "window": 4, "trainer": {"epochs": 4, "t0": 2, "batch_size": 64}}]
 
     @classmethod
     def search_space(cls):

@@ -4,8 +4,9 @@ Each prediction reads the last ``window`` input rows (S1: 5) through one LSTM la
 (S1 searched 1–200) and a linear head on the last step's output; inputs and targets are Z-scored, the loss is
 MSE and training stops after at most ``epochs`` (S1: 200). Training runs on the shared trainer: AdamW with SGDR
 warm restarts, gradient clipping and early stopping on the chronological validation tail, where S1 used plain
-Adam at a fixed learning rate; ``lr_max`` spans S1's 0.01–0.15 and is the peak of each SGDR cycle. The
-defaults (32 units, 0.01) are an untuned choice, S1's baseline LSTM; S1's PSO found 45 units and 0.0941.
+Adam at a fixed learning rate; the trainer's ``lr_max`` (``trainer__lr_max``) spans S1's 0.01–0.15 and is the
+peak of each SGDR cycle. The defaults (32 units, 0.01) are an untuned choice, S1's baseline LSTM; S1's PSO found
+45 units and 0.0941.
 
 The window is the model's memory (``history_length = window − 1``): ``predict(X, history)`` fills the first
 rows' windows from ``history``; without history the first row is repeated (as at a cold start).
@@ -19,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.training import TorchThermalModel
+from thermodrift.core.training import TorchThermalModel, TrainerSettings
 
 if TYPE_CHECKING:
     from torch import nn
@@ -35,24 +36,13 @@ def windows(x: np.ndarray, window: int) -> np.ndarray:
 class LSTM(TorchThermalModel):
     """Temperatures (°C) over the last ``window`` samples → displacements (µm) (see the module docstring)."""
 
-    def __init__(self, window: int = 5, hidden_units: int = 32, lr_max: float = 0.01, weight_decay: float = 0.0,
-                 epochs: int = 200, batch_size: int | None = None, t0: int = 50, t_mult: int = 2,
-                 eta_min_ratio: float = 1e-2, clip_norm: float | None = 1.0, patience: int | None = 3,
-                 validation_fraction: float = 0.15, random_state: int = 0, device: str = "auto"):
+    trainer_defaults = TrainerSettings(lr_max=0.01, weight_decay=0.0, epochs=200, batch_size=None, t0=50, t_mult=2)
+
+    def __init__(self, window: int = 5, hidden_units: int = 32, trainer: dict | None = None, random_state: int = 0):
         self.window = window
         self.hidden_units = hidden_units
-        self.lr_max = lr_max
-        self.weight_decay = weight_decay
-        self.epochs = epochs
-        self.batch_size = batch_size
-        self.t0 = t0
-        self.t_mult = t_mult
-        self.eta_min_ratio = eta_min_ratio
-        self.clip_norm = clip_norm
-        self.patience = patience
-        self.validation_fraction = validation_fraction
+        self.trainer = trainer
         self.random_state = random_state
-        self.device = device
 
     # follows the window parameter, so a property rather than a class constant (on the class it is truthy)
     @property
@@ -61,13 +51,13 @@ class LSTM(TorchThermalModel):
 
     @classmethod
     def get_test_params(cls):
-        return [{"hidden_units": 4, "epochs": 6, "t0": 2, "lr_max": 0.05},
-                {"window": 3, "hidden_units": 2, "lr_max": 0.1, "epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 64,
-                 "patience": None}]
+        return [{"hidden_units": 4, "trainer": {"epochs": 6, "t0": 2, "lr_max": 0.05}},
+                {"window": 3, "hidden_units": 2,
+                 "trainer": {"lr_max": 0.1, "epochs": 4, "t0": 2, "t_mult": 1, "batch_size": 64, "patience": None}}]
 
     @classmethod
     def search_space(cls):
-        return {"lr_max": {"type": "float", "low": 0.01, "high": 0.15},
+        return {"trainer__lr_max": {"type": "float", "low": 0.01, "high": 0.15},
                 "hidden_units": {"type": "int", "low": 1, "high": 200}}
 
     def _inputs(self, X: pd.DataFrame) -> np.ndarray:

@@ -17,6 +17,8 @@ After ``fit``, ``report_`` holds the tables of S3's selection study: ``clusters`
 Spearman and Kendall, with each ranking), ``quality`` (Davies-Bouldin, silhouette and BWP of scikit-learn's
 default HDBSCAN against the tuned one), ``convergence`` (best fitness after each iteration) and ``best_params``,
 all DataFrames; :meth:`report_figures` draws them (the selector-report convention that the job logs to MLflow).
+``metrics_`` holds S3 Table 16's scalars, logged as ``selector/<name>``: ``best_fitness`` (|r|) and
+``best_iteration`` (the first iteration that reached it).
 """
 
 from __future__ import annotations
@@ -71,6 +73,7 @@ class HDBSCANPSO(Selector):
             self.best_params_, self.fitness_ = {}, _fitness(points, self.labels_, target)
             self.report_ = {"clusters": _cluster_table(names, points, self.labels_, target), "quality": pd.DataFrame(),
                             "convergence": pd.DataFrame({"best_fitness": []}), "best_params": pd.DataFrame()}
+            self.metrics_ = {"best_fitness": self.fitness_, "best_iteration": 0.0}
             return names
         study = self._tune(points, target)
         self.best_params_ = dict(study.best_params)
@@ -78,11 +81,14 @@ class HDBSCANPSO(Selector):
         self.fitness_ = float(study.best_value)
         default_labels = _cluster(points, **_sklearn_defaults(len(names)))
         clusters = _cluster_table(names, points, self.labels_, target)
+        convergence = _convergence(study, self._population())
+        reached = convergence.index[np.argmax(convergence.to_numpy() >= convergence.max() - 1e-12)]
+        self.metrics_ = {"best_fitness": self.fitness_, "best_iteration": float(reached)}
         self.report_ = {
             "clusters": clusters,
             "quality": pd.DataFrame({"default": _quality(points, default_labels, target),
                                      "tuned": _quality(points, self.labels_, target)}).T,
-            "convergence": _convergence(study, self._population()).to_frame(),
+            "convergence": convergence.to_frame(),
             "best_params": pd.DataFrame([self.best_params_], index=pd.Index(["tuned"], name="clustering")),
         }
         if clusters.empty:  # every sensor is noise under every tried setting
