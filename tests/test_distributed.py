@@ -64,8 +64,9 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
     storage = postgres_url
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    args = ["model=bp", "model.params.trainer.epochs=20", "n_trials=16", "optimizer=random", f"optuna.storage={storage}",
-            f"optuna.study_name={name}"]
+    # trials long enough (bp, 200 epochs) that the victim spends most of its time inside one, where it is killed
+    args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random",
+            f"optuna.storage={storage}", f"optuna.study_name={name}"]
     workers = [_start(tmp_path, args) for _ in range(4)]
     victim, deadline = workers[0], time.time() + 300
     while time.time() < deadline and victim.poll() is None:
@@ -80,6 +81,7 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
         if owned and done >= 1:
             break
         time.sleep(0.05)
+    assert victim.poll() is None, "the worker to kill ended first:\n" + victim.communicate()[1][-1500:]
     os.killpg(victim.pid, signal.SIGKILL)
     victim.wait()
     errors = [w.communicate(timeout=600)[1] for w in workers[1:]]
