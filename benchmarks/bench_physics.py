@@ -35,7 +35,7 @@ import numpy as np
 
 from thermodrift.core import physics, registry
 from thermodrift.core.physics import calibration as cal
-from thermodrift.core.physics import mismatch, scenarios
+from thermodrift.core.physics import mismatch, scenarios, synthetic
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
 from thermodrift.core.splits import TimeWindow
@@ -71,21 +71,8 @@ def recovery(seeds: int) -> None:
 
 
 def speed_only(seed: int, dt_s: float = 15.0, repeats: int = 1):
-    """Nothing but speed-driven heat, four nodes (one hidden), Pt100 offsets; the programme ``repeats`` times."""
-    spec = {
-        "name": "speed_only", "reference_speed_rpm": 5000,
-        "nodes": {n: {"capacity_J_K": 1e4} for n in ("front", "rear", "housing", "h")},
-        "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
-                  for n, g in (("front", 4.0), ("rear", 6.0), ("housing", 3.0), ("h", 1.5))],
-        "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.4}
-                    for n, q in (("front", 40.0), ("rear", 30.0), ("housing", 10.0), ("h", 6.0))},
-        "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"front": 1.0, "housing": 2.0, "h": 3.0}}},
-        "sensors": {"T_front": {"node": "front", "noise_K": 0.02, "offset_K": 0.3},
-                    "T_rear": {"node": "rear", "noise_K": 0.02, "offset_K": -0.2},
-                    "T_housing": {"node": "housing", "noise_K": 0.02}, "dz": {"output": "z", "noise_um": 0.1}},
-    }
-    prog = [Block(0.5)] + [b for n in (1250, 2500, 5000, 3500) for b in (Block(3.0, n), Block(2.0))] * repeats
-    return synthesize(physics.network_from_dict(spec), scenarios.blocks(prog, dt_s), seed).recording
+    """Nothing but speed-driven heat (:func:`thermodrift.core.physics.synthetic.speed_only`)."""
+    return synthetic.speed_only(seed, dt_s, repeats).recording
 
 
 NOISE = {"T_front": 0.02, "T_rear": 0.02, "T_housing": 0.02, "dz": 0.1}

@@ -15,7 +15,7 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.physics import calibration as cal
 from thermodrift.core.physics import scenarios
 from thermodrift.core.physics.scenarios import Block
-from thermodrift.core.physics.synthetic import synthesize
+from thermodrift.core.physics.synthetic import speed_only, synthesize
 
 TWO_NODE = Path(__file__).parent / "data" / "two_node_network.yaml"  # two measured nodes, one displacement
 # The sensor node ``a`` reaches ambient only through ``m``, a massless joint without a sensor: only the series
@@ -157,31 +157,9 @@ def test_evaluation_cap_is_reported_and_keeps_the_best_point():
     assert all(result.rmse[c] <= result.rmse_initial[c] for c in result.rmse if result.channel_kind[c] == "displacement")
 
 
-def _speed_only_recording(seed, samples_per_15s=1, hours=None):
-    """Nothing but speed-driven heat: a network inside the auto family, the FL_THERMAL-like programme."""
-    spec = {
-        "name": "speed_only", "reference_speed_rpm": 5000,
-        "nodes": {"front": {"capacity_J_K": 1e4}, "rear": {"capacity_J_K": 1e4}, "housing": {"capacity_J_K": 1e4},
-                  "h": {"capacity_J_K": 1e4}},
-        "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
-                  for n, g in (("front", 4.0), ("rear", 6.0), ("housing", 3.0), ("h", 1.5))],
-        "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.4}
-                    for n, q in (("front", 40.0), ("rear", 30.0), ("housing", 10.0), ("h", 6.0))},
-        "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"front": 1.0, "housing": 2.0, "h": 3.0}}},
-        "sensors": {"T_front": {"node": "front", "noise_K": 0.02, "offset_K": 0.3},
-                    "T_rear": {"node": "rear", "noise_K": 0.02, "offset_K": -0.2},
-                    "T_housing": {"node": "housing", "noise_K": 0.02},
-                    "dz": {"output": "z", "noise_um": 0.1}},
-    }
-    net = physics.network_from_dict(spec)
-    prog = [Block(0.5)] + [b for n in (1250, 2500, 5000, 3500) for b in (Block(3.0, n), Block(2.0))]
-    scen = scenarios.blocks(prog, 15.0 / samples_per_15s)
-    return net, synthesize(net, scen, seed).recording
-
-
 def test_auto_network_reaches_the_noise_floor_when_nothing_is_missing():
     """The null case: speed-driven heat only; every channel ends within 1.5 × its noise σ, none gets worse."""
-    _, rec = _speed_only_recording(0)
+    rec = speed_only(0).recording
     result = cal.calibrate(rec, hidden_nodes=1, starts=2)
     noise = {"T_front": 0.02, "T_rear": 0.02, "T_housing": 0.02, "dz": 0.1}
     for c, sigma in noise.items():

@@ -17,8 +17,8 @@ import numpy as np
 
 from thermodrift.core.physics.integrate import CompiledNetwork, SimulationResult, simulate
 from thermodrift.core.physics.network import Network
-from thermodrift.core.physics.scenarios import Scenario
-from thermodrift.core.physics.spec import network_to_dict
+from thermodrift.core.physics.scenarios import Block, Scenario, blocks
+from thermodrift.core.physics.spec import network_from_dict, network_to_dict
 
 PT100_TOLERANCE = {"A": (0.15, 0.002), "B": (0.3, 0.005)}  # (K, 1/K·|t|)
 
@@ -66,3 +66,26 @@ def synthesize(network: Network, scenario: Scenario, seed: int = 0, *, tolerance
         "time_constants_h_at_rest": [round(float(t) / 3600.0, 4) for t in compiled.time_constants_s(0.0)],
     }
     return Synthetic(recording, result, truth)
+
+
+# Speed-driven heat only, inside the auto network's family: four nodes (h unmeasured), Pt100 offsets. The null
+# case of calibration (nothing missing) shared by its tests and the physics benchmark.
+SPEED_ONLY = {
+    "name": "speed_only", "reference_speed_rpm": 5000,
+    "nodes": {n: {"capacity_J_K": 1e4} for n in ("front", "rear", "housing", "h")},
+    "edges": [{"a": n, "b": "ambient", "G_W_K": g, "kind": "convection"}
+              for n, g in (("front", 4.0), ("rear", 6.0), ("housing", 3.0), ("h", 1.5))],
+    "sources": {f"q_{n}": {"type": "bearing", "node": n, "viscous_W": q, "viscous_exponent": 1.4}
+                for n, q in (("front", 40.0), ("rear", 30.0), ("housing", 10.0), ("h", 6.0))},
+    "outputs": {"z": {"axis": "z", "sensitivity_um_K": {"front": 1.0, "housing": 2.0, "h": 3.0}}},
+    "sensors": {"T_front": {"node": "front", "noise_K": 0.02, "offset_K": 0.3},
+                "T_rear": {"node": "rear", "noise_K": 0.02, "offset_K": -0.2},
+                "T_housing": {"node": "housing", "noise_K": 0.02}, "dz": {"output": "z", "noise_um": 0.1}},
+}
+
+
+def speed_only(seed: int, dt_s: float = 15.0, repeats: int = 1) -> Synthetic:
+    """:data:`SPEED_ONLY` run through 1250, 2500, 5000 and 3500 rpm (3 h each, 2 h stops), ``repeats`` times,
+    sampled every ``dt_s`` s."""
+    prog = [Block(0.5)] + [b for n in (1250, 2500, 5000, 3500) for b in (Block(3.0, n), Block(2.0))] * repeats
+    return synthesize(network_from_dict(SPEED_ONLY), blocks(prog, dt_s), seed)
