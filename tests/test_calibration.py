@@ -230,3 +230,25 @@ def test_grouped_conductances_share_one_factor_per_node_group_and_jitter_moves_o
     jittered = cal.calibrate(rec, hidden_nodes=1, intervals=False, jitter_seed=1)
     assert jittered.rmse_initial == plain_fit.rmse_initial
     assert jittered.starts[0]["values"] != plain_fit.starts[0]["values"]
+
+
+def test_auto_prior_strength_is_chosen_on_a_later_block_and_jittered_starts_agree():
+    """The auto network gets a prior centred on its unjittered start, its strength chosen by fitting before the
+    held-out block and predicting it; jittered starts then end at the same fit. A spec network gets none."""
+    rec = speed_only(0).recording
+    plain = cal.calibrate(rec, hidden_nodes=1, intervals=False)
+    prior = plain.to_dict()["prior"]
+    assert plain.prior.strength in cal.STRENGTH_GRID and prior["strength_per_row"] == plain.prior.strength
+    fit_s, held_s = prior["validation"]["fit_s"], prior["validation"]["held_out_s"]
+    assert fit_s[1] < held_s[0] and held_s[1] == rec.time_s[-1]
+    assert set(prior["validation"]["loss_per_row"]) == {str(s) for s in cal.STRENGTH_GRID}
+    start = {p.name: p.value for p in cal.auto_network(rec, hidden_nodes=1).free if p.projected_by is None}
+    assert prior["centre"] == pytest.approx({k: np.log(v) for k, v in start.items()})
+    fits = [cal.calibrate(rec, hidden_nodes=1, intervals=False, jitter_seed=seed) for seed in (1, 2, 3)]
+    for fit in fits:
+        assert fit.prior.centre == pytest.approx(plain.prior.centre)  # centred on the start, not the jittered one
+        assert fit.rmse["dz"] == pytest.approx(plain.rmse["dz"], rel=0.05)
+        assert fit.estimate("heat_exponent").value == pytest.approx(plain.estimate("heat_exponent").value,
+                                                                     rel=0.05)
+    truth = physics.load_network(TWO_NODE)
+    assert cal.calibrate(synthesize(truth, _scenario(), 0).recording, truth, free=FREE).prior is None

@@ -6,7 +6,7 @@ on the training part. It predicts as a controller runs it: a state observer (a s
 the calibrated network, :class:`thermodrift.core.physics.calibration.StateObserver`) carries the node
 temperatures from row to row, corrected by the measured temperatures; the hidden nodes run on the speed (and
 ambient) history. Displacement is the expansion map of the observed state, refitted on the training states with
-the calibration's ridge strength. ``history_length = None``: ``predict(X, history)`` starts the observer at the
+its ridge strength chosen there by blocked cross-validation (``objective.cv_ridge``). ``history_length = None``: ``predict(X, history)`` starts the observer at the
 first history row (else at the first row of ``X``, at rest with its readings), and ``streamer(history)`` carries
 the observer state so each ``update(row)`` is one filter step.
 
@@ -32,7 +32,7 @@ from sklearn.linear_model import Ridge
 from thermodrift.core.components import Streamer, ThermalModel
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.physics import calibration as cal
-from thermodrift.core.physics.calibration.objective import ridge_solve
+from thermodrift.core.physics.calibration.objective import cv_ridge, ridge_solve
 from thermodrift.core.recording import Channel, Recording
 
 _SPEED_WORDS = ("rpm", "speed", "spindle")
@@ -123,10 +123,10 @@ class LPTN(ThermalModel):
         u[:3] = 1.0, ambient[0], ambient[0]
         self.reference_ = self.observer_.comp.steady_state(0.0, 1.0, u)
         states = self._observe(self._fresh(), X)
-        # the expansion map refitted on the observed states, with the calibration's ridge strength
+        # the expansion map refitted on the observed states, its ridge strength chosen there by blocked CV
         A = np.column_stack([states - self.reference_, np.ones(len(states))])
-        lam = max(result.ridge.values(), default=0.0)
-        beta = ridge_solve(A, y, lam)
+        self.ridge_ = cv_ridge(A, y)
+        beta = ridge_solve(A, y, self.ridge_)
         self.coef_, self.intercept_ = beta[:-1], beta[-1]
         self.rmse_calibration_ = result.rmse
 

@@ -7,7 +7,8 @@ Public API (stable; the missing-physics finder builds on it)::
     result = cal.calibrate(recording, network=None,        # None: the auto network of the recording
                            free=None,                      # [FreeParameter] or globs over network paths
                            targets=None, hidden_nodes=2,
-                           max_evaluations=200, starts=1, seed=0, level=0.95)
+                           max_evaluations=200, starts=1, seed=0, level=0.95,
+                           prior_strength=None)            # None: auto network's prior chosen on a held-out block
     result.rmse_initial, result.rmse     # {channel: RMSE} on every sample (K, µm), start and calibrated
     result.network                       # the calibrated Network (estimates and linear map written in)
     result.estimates                     # [Estimate(name, paths, value, start, low, high, se, at_bound, unit, log)]
@@ -16,6 +17,7 @@ Public API (stable; the missing-physics finder builds on it)::
     result.starts, result.spread         # per-start cost/stop/values; max/min over starts
     result.residuals                     # measured − calibrated (DataFrame, time_s index)
     result.warnings                      # worse temperature channels, starts not kept, capped grid
+    result.prior                         # Prior on the nonlinear parameters (strength, how it was chosen) or None
     result.to_dict()                     # calibration.json: rmse_initial and rmse at the top level
 
     cal.FreeParameter(name, paths=("edges.a-b.G_W_K",), value=2.0, low=0.1, high=50.0, unit="W/K", log=True)
@@ -26,8 +28,8 @@ Public API (stable; the missing-physics finder builds on it)::
 A mechanism adds its own parameters by passing ``free=[*auto.free, *mechanism_parameters]`` with a network that
 contains its element. Modules by job: :mod:`.free` (free parameters), :mod:`.auto` (the auto network and what
 it assumes), :mod:`.objective` (re-simulation, variable projection, ridge sensitivities, the fit grid),
-:mod:`.uncertainty` (intervals, identifiability), :mod:`.fit` (the search and the result), :mod:`.prediction`
-(open loop and the state observer).
+:mod:`.uncertainty` (intervals, identifiability), :mod:`.prior` (the auto network's prior), :mod:`.fit` (the search
+and the result), :mod:`.prediction` (open loop and the state observer).
 
 Determinism: the search (``scipy.optimize.least_squares``, trust-region reflective, bounds) stops on its
 tolerances or on ``max_evaluations`` iterations per start, never on wall-clock time; extra starts are jittered
@@ -40,10 +42,12 @@ from thermodrift.core.physics.calibration.fit import CalibrationResult, calibrat
 from thermodrift.core.physics.calibration.free import FreeParameter, default_free, free_from_paths
 from thermodrift.core.physics.calibration.objective import fit_rows, noise_sigma
 from thermodrift.core.physics.calibration.prediction import StateObserver, predict
+from thermodrift.core.physics.calibration.prior import STRENGTH_GRID, Prior
 from thermodrift.core.physics.calibration.uncertainty import NULL_TOLERANCE, UNIDENTIFIABLE_RATIO, Estimate
 
 __all__ = [
     "AUTO_AMBIENT_DEGC", "AUTO_ASSUMPTIONS", "AUTO_CAPACITY_J_K", "AutoBaseline", "CalibrationResult", "Estimate",
-    "FreeParameter", "NULL_TOLERANCE", "StateObserver", "UNIDENTIFIABLE_RATIO", "auto_network", "calibrate",
+    "FreeParameter", "NULL_TOLERANCE", "Prior", "STRENGTH_GRID", "StateObserver", "UNIDENTIFIABLE_RATIO",
+    "auto_network", "calibrate",
     "default_free", "fit_rows", "free_from_paths", "noise_sigma", "predict", "step_response_start",
 ]

@@ -17,6 +17,7 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration.auto import AUTO_AMBIENT_DEGC, auto_network
 from thermodrift.core.physics.calibration.free import FreeParameter, default_free, free_from_paths
 from thermodrift.core.physics.calibration.objective import MAX_FIT_SAMPLES, Problem, frame_of
+from thermodrift.core.physics.calibration.prior import Prior, choose_strength, prior_scale
 from thermodrift.core.physics.calibration.uncertainty import Estimate, jacobian, num, uncertainty
 from thermodrift.core.physics.network import Network
 
@@ -25,6 +26,11 @@ _THREADS = ThreadpoolController()
 FTOL, XTOL, GTOL = 1e-6, 1e-8, 1e-8   # least_squares tolerances (relative cost change, step, gradient)
 WORSE_TOLERANCE = 0.05               # a displacement RMSE above (1 + this) × its start value counts as worse
 JITTER_LOG = 0.5                      # σ of the log-normal jitter of extra starts (±65 % at 1σ)
+# Least ridge strength (per sample, standardised sensitivities) of the auto network's expansion map. Unpenalised,
+# the map turns the difference of two nearly equal node trajectories into a regressor of any size: on FL_THERMAL
+# moving one conductance by 1e-5 (relative) from a value another node shares cut the cost by 13 %, so the
+# objective is rough at the search's finite-difference step and the search stalls where it starts.
+AUTO_MIN_RIDGE = 1e-8
 
 
 @dataclass
@@ -36,6 +42,8 @@ class CalibrationResult:
     ``stopped`` the optimizer's message. ``starts``: one record per start (cost, stop, evaluations, θ);
     ``spread``: max/min cost over starts and per-parameter max/min value. ``warnings``: temperature channels
     that got worse, a start kept because the fit worsened a displacement channel, a capped fit grid.
+    ``prior``: the Gaussian prior on the nonlinear parameters (:mod:`.prior`), None without one; ``cost`` and
+    ``cost_initial`` are of the data alone, the costs in ``starts`` include the prior.
     """
 
     network_initial: Network
@@ -70,6 +78,7 @@ class CalibrationResult:
     predicted: pd.DataFrame | None = field(default=None, repr=False)
     channel_kind: dict[str, str] = field(default_factory=dict)
     speed_rpm: np.ndarray | None = field(default=None, repr=False)
+    prior: Prior | None = None
 
     @property
     def residuals(self) -> pd.DataFrame:
@@ -104,6 +113,7 @@ class CalibrationResult:
                           "fit_samples": self.fit_samples},
             "starts": self.starts,
             "spread": self.spread,
+            "prior": self.prior.to_dict() if self.prior else None,
         }
 
 
@@ -111,7 +121,8 @@ def calibrate(recording, network: Network | None = None, *,
               free: Sequence[FreeParameter] | Sequence[str] | None = None, targets: Sequence[str] | None = None,
               hidden_nodes: int = 2, max_evaluations: int = 100, starts: int = 1, seed: int = 0,
               level: float = 0.95, max_fit_samples: int = MAX_FIT_SAMPLES, intervals: bool = True,
-              progress: bool = False, jitter_seed: int | None = None, grouped: bool = False) -> CalibrationResult:
+              progress: bool = False, jitter_seed: int | None = None, grouped: bool = False,
+              prior_strength: float | None = None) -> CalibrationResult:
     """Calibrate ``network`` (None: the ``auto`` network of the recording) to ``recording``.
 
     ``free``: FreeParameter objects (a mechanism adds its own), or glob patterns over parameter paths
@@ -123,19 +134,30 @@ def calibrate(recording, network: Network | None = None, *,
     jittered from this seed (the never-worse guard still compares with the unjittered start), so the spread of
     results over seeds measures how much a fit depends on where it starts. ``level`` is the interval confidence;
     ``intervals=False`` skips the final Jacobian. ``grouped``: the auto network with one conductance factor per
-    node group (:func:`auto_network`). Raises InputError when a calibrated displacement error exceeds the channel's range.
+    node group (:func:`auto_network`). ``prior_strength``: λ per data row of a Gaussian prior on the nonlinear
+    parameters centred on the network's start (:mod:`.prior`); None: chosen on a held-out block for the auto
+    network, none for a given network; 0: none. Raises InputError when a calibrated displacement error exceeds
+    the channel's range.
     """
     with _THREADS.limit(limits=1, user_api="blas"):
         return _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-                          max_fit_samples, intervals, progress, jitter_seed, grouped)
+                          max_fit_samples, intervals, progress, jitter_seed, grouped, prior_strength)
+
+
+def _least_squares(fun, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, max_evaluations: int):
+    """The calibration's search: trust-region reflective least squares within [lo, hi], stopped on
+    :data:`FTOL`/:data:`XTOL`/:data:`GTOL` or after ``max_evaluations`` evaluations."""
+    return optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=1.0, method="trf", max_nfev=max_evaluations,
+                                  xtol=XTOL, ftol=FTOL, gtol=GTOL, diff_step=1e-4)
 
 
 def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations, starts, seed, level,
-               max_fit_samples, intervals, progress, jitter_seed, grouped) -> CalibrationResult:
+               max_fit_samples, intervals, progress, jitter_seed, grouped, prior_strength) -> CalibrationResult:
     clock = time.perf_counter()  # reported only; no decision depends on it
     assumptions: tuple[str, ...] = ()
     taus: list[float] = []
-    if network is None:
+    is_auto = network is None
+    if is_auto:
         auto = auto_network(recording, hidden_nodes=hidden_nodes, grouped=grouped)
         network, default = auto.network, auto.free
         assumptions, taus = auto.assumptions, list(auto.time_constants_s.values())
@@ -145,7 +167,8 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
         free = default if default is not None else default_free(network)
     elif free and isinstance(free[0], str):
         free = free_from_paths(network, list(free))
-    problem = Problem(network, list(free), recording, targets, taus, max_fit_samples, AUTO_AMBIENT_DEGC)
+    problem = Problem(network, list(free), recording, targets, taus, max_fit_samples, AUTO_AMBIENT_DEGC,
+                      AUTO_MIN_RIDGE if is_auto else 0.0)
     warnings: list[str] = []
     if problem.grid_step_s > 0 and len(problem.rows) >= max_fit_samples:
         warnings.append(f"fit grid capped at {max_fit_samples} samples: step {problem.grid_step_s:g} s is coarser "
@@ -155,6 +178,14 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
     problem.choose_ridge(theta0)
     problem.set_weights(theta0)
     r0 = problem.residuals(theta0)
+    prior = None
+    if problem.free and (prior_strength is None and is_auto or prior_strength):
+        if prior_strength is None:
+            strength, validation = choose_strength(problem, recording, theta0,
+                                                   lambda f, x0: _least_squares(f, x0, lo, hi, max_evaluations).x)
+        else:
+            strength, validation = float(prior_strength), {"given": True}
+        prior = Prior([p.name for p in problem.free], theta0, prior_scale(problem), strength, len(r0), validation)
     bar = None
     if progress:
         from tqdm import tqdm
@@ -164,12 +195,11 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
         r = problem.residuals(theta)
         if bar is not None:
             bar.update()
-        return r
+        return r if prior is None else np.concatenate([r, prior.residuals(theta)])
 
     def search(x0: np.ndarray) -> dict[str, Any]:
         before = problem.evaluations
-        sol = optimize.least_squares(fun, x0, bounds=(lo, hi), x_scale=1.0, method="trf", max_nfev=max_evaluations,
-                                     xtol=XTOL, ftol=FTOL, gtol=GTOL, diff_step=1e-4)
+        sol = _least_squares(fun, x0, lo, hi, max_evaluations)
         return {"theta": np.array(sol.x), "cost": float(sol.fun @ sol.fun), "stopped": sol.message,
                 "stop": "evaluation_cap" if sol.status == 0 else "tolerance",
                 "evaluations": problem.evaluations - before}
@@ -240,6 +270,7 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
         estimates += [Estimate(p.name, p.paths, out["linear"][ch][p.name], p.value, math.nan, math.nan, math.nan,
                                False, p.unit) for ch, p in problem.projected.items()]
         unidentifiable, null_dirs, linear_ci = [], [], {}
+    selection = prior.validation.get("evaluations", 0) if prior else 0
     costs = [run["cost"] for run in runs]
     values = np.array([[p.from_search(v) for p, v in zip(problem.free, run["theta"])] for run in runs])
     spread = {"cost_max_over_min": max(costs) / min(costs) if min(costs) > 0 else math.inf,
@@ -254,7 +285,8 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
         sigma={c.name: c.sigma for c in problem.channels}, weight={c.name: c.weight for c in problem.channels},
         rmse_initial=start["rmse"], rmse=full["rmse"],
         unidentifiable=unidentifiable, null_directions=null_dirs, level=level, cost_initial=float(r0 @ r0),
-        cost=float(r @ r), s2=s2, evaluations=problem.evaluations, seconds=time.perf_counter() - clock,
+        cost=float(r @ r), s2=s2,
+        evaluations=problem.evaluations + selection, seconds=time.perf_counter() - clock,
         stop=chosen["stop"], stopped=chosen["stopped"],
         starts=[{"cost": run["cost"], "stop": run["stop"], "evaluations": run["evaluations"],
                  "values": {p.name: p.from_search(v) for p, v in zip(problem.free, run["theta"])}} for run in runs],
@@ -262,7 +294,7 @@ def _calibrate(recording, network, free, targets, hidden_nodes, max_evaluations,
         assumptions=assumptions, time_s=problem.time_s, measured=frame_of(problem, problem.measured),
         predicted_initial=start["predicted"], predicted=full["predicted"],
         channel_kind={c.name: c.kind for c in problem.channels},
-        speed_rpm=problem.scenario.frame["speed_rpm"].to_numpy())
+        speed_rpm=problem.scenario.frame["speed_rpm"].to_numpy(), prior=prior)
 
 
 def problem_kind(problem: Problem, channel: str) -> str:

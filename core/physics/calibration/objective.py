@@ -118,8 +118,10 @@ class Problem:
 
     def __init__(self, network: Network, free: list[FreeParameter], recording, targets: Sequence[str] | None,
                  time_constants_s: Sequence[float] = (), max_fit_samples: int = MAX_FIT_SAMPLES,
-                 ambient_degC: float = 20.0):
+                 ambient_degC: float = 20.0, min_ridge: float = 0.0):
         self.network = network
+        self.time_constants_s, self.max_fit_samples = list(time_constants_s), max_fit_samples
+        self.ambient_degC, self.min_ridge = ambient_degC, min_ridge
         self.free = [p for p in free if p.projected_by is None]
         self.projected = {p.projected_by: p for p in free if p.projected_by is not None}
         self.scenario = Scenario.from_recording(recording, ambient_degC=ambient_degC)
@@ -270,25 +272,11 @@ class Problem:
     def choose_ridge(self, theta: np.ndarray) -> dict[tuple[str, ...], float]:
         """Set each displacement group's ridge strength by blocked cross-validation at θ (see module docstring):
         the grid value whose fits on all but one of :data:`CV_BLOCKS` contiguous blocks predict the held-out
-        block best (summed over the group's channels); ties go to the weaker penalty."""
+        block best (summed over the group's channels), not below ``min_ridge``; ties go to the weaker penalty."""
         designs = self.outputs(self.simulate(theta))["designs"]
         for names, sensors in self.groups.items():
-            As, scale = _scaled(designs[names])
             Y = np.column_stack([self.measured[s.name][self.rows] for s in sensors])
-            folds = np.array_split(np.arange(len(As)), CV_BLOCKS)
-            G, b = As.T @ As, As.T @ Y
-            P = np.eye(As.shape[1])
-            P[-1, -1] = 0.0
-            errors = []
-            for lam in RIDGE_GRID:
-                sse = 0.0
-                for test in folds:
-                    At = As[test]
-                    n_train = len(As) - len(test)
-                    beta = _solve(G - At.T @ At + lam * n_train * P, b - At.T @ Y[test])
-                    sse += float(((Y[test] - At @ beta) ** 2).sum())
-                errors.append(sse)
-            self.ridge[names] = RIDGE_GRID[int(np.argmin(errors))]
+            self.ridge[names] = cv_ridge(designs[names], Y, self.min_ridge)
         return dict(self.ridge)
 
     def set_weights(self, theta: np.ndarray) -> None:
@@ -330,6 +318,27 @@ def _scaled(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if A.shape[1] > 1:
         scale[:-1] = np.maximum(np.sqrt(np.mean(A[:, :-1] ** 2, axis=0)), 1e-12)
     return A / scale, scale
+
+
+def cv_ridge(A: np.ndarray, Y: np.ndarray, min_ridge: float = 0.0) -> float:
+    """The ridge strength of :data:`RIDGE_GRID` (not below ``min_ridge``) whose fits of Y ≈ A β on all but one
+    of :data:`CV_BLOCKS` contiguous blocks predict the held-out block best (summed over Y's columns); ties go to
+    the weaker penalty."""
+    As, _ = _scaled(A)
+    folds = np.array_split(np.arange(len(As)), CV_BLOCKS)
+    G, b = As.T @ As, As.T @ Y
+    P = np.eye(As.shape[1])
+    P[-1, -1] = 0.0
+    grid = [lam for lam in RIDGE_GRID if lam >= min_ridge]
+    errors = []
+    for lam in grid:
+        sse = 0.0
+        for test in folds:
+            At = As[test]
+            beta = _solve(G - At.T @ At + lam * (len(As) - len(test)) * P, b - At.T @ Y[test])
+            sse += float(((Y[test] - At @ beta) ** 2).sum())
+        errors.append(sse)
+    return grid[int(np.argmin(errors))]
 
 
 def _solve(M: np.ndarray, b: np.ndarray) -> np.ndarray:
