@@ -75,8 +75,9 @@ def test_prediction_with_history_and_streaming_continue_the_observer(frames):
         "the measured temperatures must move the prediction"
 
 
-def test_hybrid_corrects_an_effect_the_baseline_leaves_out(frames):
-    """The room swing is not in the auto network (no ambient channel): the residual model takes it from T_column."""
+def test_the_room_swing_is_taken_from_the_measured_column_and_the_hybrid_keeps_it(frames):
+    """The room swing is not in the auto network (no ambient channel) but T_column measures it: the expansion map
+    of the observed states (ridge chosen by blocked CV) takes it, and the hybrid's residual model keeps it."""
     X, y, cut = frames
     target = y[["disp_z"]]
     truth = target.iloc[cut:].to_numpy()[:, 0]
@@ -84,8 +85,8 @@ def test_hybrid_corrects_an_effect_the_baseline_leaves_out(frames):
     for cls in (LPTN, LPTNHybrid):
         model = cls(**CHEAP).fit(X.iloc[:cut], target.iloc[:cut])
         rmse[cls.__name__] = float(np.sqrt(np.mean((model.predict(X.iloc[cut:])[:, 0] - truth) ** 2)))
-    assert rmse["LPTNHybrid"] < 0.5 * rmse["LPTN"], rmse
-    assert rmse["LPTNHybrid"] < 1.0, rmse
+    assert rmse["LPTN"] < 0.2, rmse  # the drift noise is 0.05 µm; the room alone moves disp_z by tens of µm
+    assert rmse["LPTNHybrid"] <= 1.05 * rmse["LPTN"], rmse
 
 
 def test_pickle_round_trip(frames):
