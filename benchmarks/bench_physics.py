@@ -9,7 +9,8 @@ inflates them less than wall-clock time):
   95 % intervals (target ≥ 90 %);
 * null case — a recording with nothing but speed-driven heat (inside the auto family), calibrated with
   ``--network auto``: worst RMSE / noise σ over channels (target ≤ 1.5); sensor offsets are fitted (projected);
-* FL_THERMAL — the auto calibration of the whole recording (time, stop reason, evaluations), and held-out RMSE
+* FL_THERMAL — the auto calibration of the whole recording (time, stop reason, evaluations, the strength of its
+  prior and the block it was chosen on), and held-out RMSE
   per channel ch1–ch5 on ``experiment=fl_thermal_5000rpm_heldout`` (train t < 24.13 h, test 24.13–32.13 h, all
   16 temperatures) of ``lptn``, ``lptn_hybrid`` and ``mlr`` (targets: ch3 lptn_hybrid ≤ 3.5 µm, lptn ≤ 7 µm),
   and of the physics models from 5 jittered starts (``jitter_seed`` 1–5): ch3 range and max/min per channel
@@ -95,6 +96,9 @@ def fl_thermal(data: Path) -> None:
     row("FL_THERMAL calibration, auto", f"{result.evaluations} simulations, stop: {result.stop}, "
         f"grid {result.fit_samples} × {result.grid_step_s:g} s", f"{seconds:.1f} CPU s", "tolerance, ≤ 60 s")
     worse = [w for w in result.warnings]
+    prior = result.prior.validation
+    row("  calibration prior", f"λ per row chosen on {prior['held_out_s'][0] / 3600:.1f}–"
+        f"{prior['held_out_s'][1] / 3600:.1f} h, fit before", f"λ = {result.prior.strength:g}")
     for c in recording.columns("displacement"):
         row(f"  calibration {c}", "RMSE before -> after", f"{result.rmse_initial[c]:.2f} -> {result.rmse[c]:.2f} µm")
     row("  calibration warnings", "", str(len(worse)) + (f": {worse[0][:60]}…" if worse else ""))

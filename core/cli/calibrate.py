@@ -98,6 +98,10 @@ def _print_summary(result, mm, out: Path) -> None:
     print(f"network {result.network.name!r}: {len(result.estimates)} parameters, {result.evaluations} simulations "
           f"in {result.seconds:.1f} s, stopped on {result.stop.replace('_', ' ')} ({result.stopped}); "
           f"fit grid {result.fit_samples} samples, step {result.grid_step_s:g} s")
+    if result.prior is not None:
+        held = result.prior.validation.get("held_out_s")
+        print(f"prior on the nonlinear parameters: strength {result.prior.strength:g} per row"
+              + (f", chosen on the held-out block {held[0]:g}–{held[1]:g} s" if held else ""))
     if len(result.starts) > 1:
         print(f"{len(result.starts)} starts: cost max/min {result.spread['cost_max_over_min']:.4g}")
     for w in result.warnings:
