@@ -7,7 +7,8 @@ least squares: per temperature channel its sensor offset (K) (and, for the ``aut
 per displacement channel its sensitivities (µm/K, tilt µm/K, centrifugal µm) and probe offset (µm). The
 sensitivities are ridge-regularised on standardised regressors (node temperatures of one machine are strongly
 collinear; unpenalised they reach ±1e4 µm/K): the strength is chosen by blocked cross-validation on contiguous
-time blocks of the fit grid (:meth:`Problem.choose_ridge`), 0 included, so a well-posed map is not shrunk. The
+time blocks of the fit grid (:meth:`Problem.choose_ridge`), 0 included, so a well-posed map is not shrunk (the
+auto network's map keeps a least strength, ``min_ridge``: see ``fit.AUTO_MIN_RIDGE``). The
 residual of each channel is divided by its weight σ: the larger of its noise σ (:func:`noise_sigma`) and its
 RMS residual at the start (:meth:`Problem.set_weights`), so °C and µm channels share one scale and, on a real
 machine whose model error is far above the sensor noise, sixteen temperature channels cannot drown five

@@ -13,6 +13,9 @@ start of the running speed block nearest :data:`VALIDATION_FROM` of its duration
 :data:`STRENGTH_GRID` calibrates on the part before, and the one whose network (continued over the whole
 recording, with the linear map solved before the cut) predicts the block after best in the objective's own
 weighted residual wins. A recording without two running blocks has no such block and gets no prior.
+
+The intervals (:mod:`.uncertainty`) stay those of the data alone (the Jacobian of the data residuals), so they
+still say which parameters the data cannot identify; the prior only decides where the search ends along them.
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ class Prior:
     scale: np.ndarray      # σ per search coordinate at λ = 1 per data row
     strength: float        # λ per data row
     rows: int              # data residual rows it is weighed against
-    validation: dict[str, Any] = field(default_factory=dict)  # how λ was chosen (empty: given)
+    validation: dict[str, Any] = field(default_factory=dict)  # how λ was chosen ({"given": True}: passed in)
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         return math.sqrt(self.strength * self.rows) * (np.asarray(theta) - self.centre) / self.scale
@@ -82,7 +85,7 @@ def choose_strength(problem: Problem, recording, theta0: np.ndarray,
     speed = problem.scenario.frame["speed_rpm"].to_numpy()
     cut = validation_cut(problem.time_s, speed)
     if cut is None:
-        return 0.0, {"held_out": None, "reason": "fewer than two running speed blocks", "evaluations": 0}
+        return 0.0, {"held_out_s": None, "reason": "fewer than two running speed blocks", "evaluations": 0}
     inner = Problem(problem.network, [*problem.free, *problem.projected.values()],
                     recording.select(np.arange(cut)), [s.name for s in problem.disp_sensors],
                     problem.time_constants_s, problem.max_fit_samples, problem.ambient_degC, problem.min_ridge)
