@@ -18,7 +18,7 @@ at once (cutting heat into the tool and the spindle) is a greedy union of its be
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -322,6 +322,17 @@ def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
     out.block_stats, out.projected = first.block_stats, first.projected
     out.gram = gram
     return out
+
+
+def restricted(screen: Screen, cand: Candidate, keep: np.ndarray) -> Candidate:
+    """``cand`` with its amplitudes fitted on the blocks marked ``keep`` alone (bool per block)."""
+    nonneg = _nonneg_first(screen, cand)
+    if not cand.parts:
+        beta = _beta(cand.block_stats[keep].sum(axis=0), nonneg)
+        return replace(cand, beta={n: float(b) for n, b in zip(screen.group_names, beta)})
+    tot = cand.gram[keep].sum(axis=0)
+    first = _solve(tot[0], nonneg) if screen.temps_first else np.zeros(len(cand.parts))
+    return replace(cand, part_betas=[float(b) for b in first])
 
 
 def _place_text(options: dict[str, Any]) -> str:
