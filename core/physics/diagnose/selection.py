@@ -11,7 +11,9 @@ The calibration search minimises its own objective (each channel weighted by the
 its misfit at the start), not this statistic, and on some recordings ends where the statistic is worse than
 at the start it was given (the screening's linearised amplitude). The start, with only the linear parameters
 solved, is therefore scored too and the better of the two by the balanced statistic is kept (the search
-result's intervals go with it; the start has none).
+result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
+parameters its search leaves fixed (the slow mode's conductance) is fitted from two starts, those at their
+default and at the screening's temperature amplitude, and the better is kept alike.
 
 Of the passing candidates that explain the residual within :data:`EQUIVALENT` of the best one and that the
 data cannot tell apart from it (:func:`indistinguishable`), the most parsimonious is named: the fewest free
@@ -80,22 +82,25 @@ class Fitted:
     val_disp_n: int = 0              # the number of displacement values it sums
 
 
-def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeParam, float]]]:
+def _declared(cand: Candidate, base: Network,
+              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParam, float]]] | None:
     """The augmented network at start values and each free parameter with its start value.
 
-    The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism, and
-    for a shaped one (:data:`SHAPES`) the amplitude parameters its search leaves fixed (:func:`_held_amplitudes`).
+    The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism; with
+    ``scale_held``, those of a shaped one (:data:`SHAPES`) that its search leaves fixed (:func:`_held_amplitudes`;
+    None when it has none).
     """
     parts = cand.parts or [cand]
     amps = cand.part_betas if cand.parts else [cand.beta.get("temperatures", 0.0)]
-    net, out = base, []
+    net, out, scaled = base, [], False
     for part, amp in zip(parts, amps):
         before = net
         mech = part.factory(**part.options)
         net, free = mech.declare(before, **part.shape)
-        held = _held_amplitudes(part, free, amp) if cand.mechanism in SHAPES else {}
+        held = _held_amplitudes(part, free, amp) if scale_held and cand.mechanism in SHAPES else {}
         if held:
             net, free = mech.declare(before, **part.shape, **held)
+            scaled = True
         if len(parts) > 1:
             free = [dataclasses.replace(fp, name=f"{fp.name}@{_place_text(part.options)}") for fp in free]
         logs = [fp for fp in free if fp.scale == "log"]
@@ -104,7 +109,7 @@ def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeP
             if logs and fp is logs[0] and cand.mechanism not in SHAPES and amp > 0:
                 start = float(np.clip(fp.value * amp, fp.low, fp.high))
             out.append((fp, start))
-    return net, out
+    return None if scale_held and not scaled else (net, out)
 
 
 def _held_amplitudes(part: Candidate, free: list[FreeParam], amp: float) -> dict[str, float]:
@@ -160,27 +165,30 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
 
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
          max_evaluations, level, intervals: bool) -> Fitted:
-    net, declared = _declared(cand, base)
-    searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
-    net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
-    free = []
-    for fp, v in searched:
-        lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-        if fp.scale == "log":
-            lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
-        free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit,
-                                  log=fp.scale == "log"))
     d0 = (((measured - base_readings) / sigma)[rows]) ** 2
     best = None
-    for search in ([True, False] if free else [False]):  # the search result, then the start (see the docstring)
-        res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
-                        level=level, max_evaluations=max_evaluations)
-        readings = baseline_of(res.network, scenario, channels, measured, rows).readings
-        d1 = (((measured - readings) / sigma)[rows]) ** 2
-        dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
-        if best is None or dsse_bal > best[3]:
-            best = (res, readings, d1, dsse_bal)
-    res, readings, d1, dsse_bal = best
+    for start in (_declared(cand, base), _declared(cand, base, scale_held=True)):
+        if start is None:
+            continue
+        net, declared = start
+        searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
+        net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
+        free = []
+        for fp, v in searched:
+            lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
+            if fp.scale == "log":
+                lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
+            free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi,
+                                      fp.unit, log=fp.scale == "log"))
+        for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
+            res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
+                            level=level, max_evaluations=max_evaluations)
+            readings = baseline_of(res.network, scenario, channels, measured, rows).readings
+            d1 = (((measured - readings) / sigma)[rows]) ** 2
+            dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
+            if best is None or dsse_bal > best[3]:
+                best = (res, readings, d1, dsse_bal, declared)
+    res, readings, d1, dsse_bal, declared = best
     dsse = float(d0.sum() - d1.sum())
     dof = max(len(declared), 1)
     values = res.network.parameters()
