@@ -79,3 +79,29 @@ def test_a_preload_feedback_the_calibration_search_overshoots_is_still_found():
     assert d.findings and d.findings[0]["mechanism"] == "preload_feedback"
     fit = next(t for t in d.trace if t["candidate"].startswith("preload_feedback"))
     assert fit["fit_share"] >= 0.9 * fit["screen_share"]
+
+
+def test_a_constant_offset_of_the_ambient_input_is_absorbed_by_the_baseline(monkeypatch):
+    """A boundary sensor's unknown offset (Pt100 tolerance) is a linear nuisance of the baseline, not a residual
+    a mechanism could score on: the network's temperature-dependent heat makes it more than a per-channel offset."""
+    from thermodrift.core.physics.scenarios import Scenario
+
+    case = concealed_case(physics.load_network("demo_spindle"), None, 4, hours=14.0, dt_s=120.0)
+    rec, net = case.recording, case.baseline
+    channels = [s.name for s in net.sensors]
+    measured = rec.data[channels].to_numpy(dtype=float)
+    rows = np.arange(len(rec))
+    sigma = np.array([s.noise_K if hasattr(s, "noise_K") else s.noise_um for s in net.sensors])
+    scenario = Scenario.from_recording(rec)
+    frame = scenario.frame.copy()
+    frame["ambient_degC"] += 0.3
+    offset = Scenario(frame, scenario.name)
+
+    def misfit(sc):
+        r = measured - screening.baseline_of(net, sc, channels, measured, rows, sigma).readings
+        return float((r ** 2).sum())
+
+    plain, shifted = misfit(scenario), misfit(offset)
+    assert shifted == pytest.approx(plain, rel=0.01)
+    monkeypatch.setattr(screening, "BOUNDARY_INPUTS", ())
+    assert misfit(offset) > 1.05 * misfit(scenario)

@@ -156,7 +156,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
     before_validation = ~np.isin(np.arange(int(blocks.max()) + 1), blocks[np.isin(rows, val_rows)])
     displacement = np.array([k == "displacement" for k in kinds])
-    base = screening.baseline_of(cal.network, scenario, channels, measured, rows)
+    base = screening.baseline_of(cal.network, scenario, channels, measured, rows, sigma)
     first = base
     findings: list[dict[str, Any]] = []
     rejected: list[dict[str, Any]] = []
@@ -185,7 +185,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
         validation = selection.Validation(inner_rec, inner, val_rows, screening.baseline_of(
-            base.network, scenario, channels, measured, inner).readings, screen, before_validation)
+            base.network, scenario, channels, measured, inner, sigma).readings, screen, before_validation)
         fitted = []
         for c in ranked:
             try:
@@ -229,7 +229,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
         accepted.add(win.candidate.mechanism)
-        base = screening.baseline_of(win.network, scenario, channels, measured, rows)
+        base = screening.baseline_of(win.network, scenario, channels, measured, rows, sigma)
     listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
     for mid in registry.names("mechanism"):
         if (only is None or mid in only) and mid not in listed:

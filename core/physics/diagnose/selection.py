@@ -183,7 +183,7 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
         for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
             res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
                             level=level, max_evaluations=max_evaluations)
-            readings = baseline_of(res.network, scenario, channels, measured, rows).readings
+            readings = baseline_of(res.network, scenario, channels, measured, rows, sigma).readings
             d1 = (((measured - readings) / sigma)[rows]) ** 2
             dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
             if best is None or dsse_bal > best[3]:
