@@ -17,7 +17,7 @@ effect is over 20 % of its peak) and run time per case.
 Run::
 
     python benchmarks/bench_diagnose.py                # default: 11 hidden + 6 null cases, dt 120 s (~5 min)
-    python benchmarks/bench_diagnose.py --full         # 22 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
+    python benchmarks/bench_diagnose.py --full         # 33 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
     python benchmarks/bench_diagnose.py --fl --skip-synthetic   # only the semi-synthetic FL_THERMAL cases
     python benchmarks/bench_diagnose.py --full --results rows.jsonl   # a run cut off goes on where it stopped
     python benchmarks/bench_diagnose.py --full --seed-offset 100      # an unseen set: every case seed shifted
@@ -212,7 +212,7 @@ def report_fl(fl: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="22 hidden + 20 null cases at 120 s and 2 at 15 s")
+    ap.add_argument("--full", action="store_true", help="33 hidden + 20 null cases at 120 s and 2 at 15 s")
     ap.add_argument("--fl", action="store_true", help="add the semi-synthetic FL_THERMAL cases")
     ap.add_argument("--skip-synthetic", action="store_true", help="run only the FL_THERMAL cases (with --fl)")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of FL_THERMAL's data.xlsx")
@@ -228,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
                 row = json.loads(line)
                 done[row["case"]] = row
     reg = registry.default()
-    per, nulls, dt = (2, 20, 120.0) if args.full else (1, 6, 120.0)
+    per, nulls, dt = (3, 20, 120.0) if args.full else (1, 6, 120.0)
     rows = []
     start = time.perf_counter()
     off = args.seed_offset
