@@ -17,9 +17,10 @@ effect is over 20 % of its peak) and run time per case.
 Run::
 
     python benchmarks/bench_diagnose.py                # default: 11 hidden + 6 null cases, dt 120 s (~5 min)
-    python benchmarks/bench_diagnose.py --full         # 22 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
+    python benchmarks/bench_diagnose.py --full         # 33 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
     python benchmarks/bench_diagnose.py --fl --skip-synthetic   # only the semi-synthetic FL_THERMAL cases
     python benchmarks/bench_diagnose.py --full --results rows.jsonl   # a run cut off goes on where it stopped
+    python benchmarks/bench_diagnose.py --full --seed-offset 100      # an unseen set: every case seed shifted
 
 ``--results`` keeps one JSON line per finished case and skips the cases already in it, so a long run can be
 split into several shorter ones; start a new file after changing the code.
@@ -56,11 +57,11 @@ def network_for(k: int, seed: int):
     return physics.load_network(MACHINES[(k - k // 3) % len(MACHINES)])
 
 
-def hidden_cases(per_mechanism: int, dt_s: float, reg):
+def hidden_cases(per_mechanism: int, dt_s: float, reg, offset: int = 0):
     k = 0
     for rep in range(per_mechanism):
         for m in HIDDEN:
-            seed = 1000 + k
+            seed = 1000 + offset + k
             for attempt in range(6):  # a network where the mechanism has no place: draw the next one
                 net = network_for(k + attempt, seed + attempt)
                 cls = reg.get("mechanism", m).factory
@@ -70,9 +71,9 @@ def hidden_cases(per_mechanism: int, dt_s: float, reg):
             k += 1
 
 
-def null_cases(n: int, dt_s: float, reg):
+def null_cases(n: int, dt_s: float, reg, offset: int = 0):
     for i in range(n):
-        seed = 5000 + i
+        seed = 5000 + offset + i
         yield concealed_case(network_for(i, seed), None, seed, registry=reg, dt_s=dt_s, constant_drivers=i % 2 == 1)
 
 
@@ -211,11 +212,13 @@ def report_fl(fl: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--full", action="store_true", help="22 hidden + 20 null cases at 120 s and 2 at 15 s")
+    ap.add_argument("--full", action="store_true", help="33 hidden + 20 null cases at 120 s and 2 at 15 s")
     ap.add_argument("--fl", action="store_true", help="add the semi-synthetic FL_THERMAL cases")
     ap.add_argument("--skip-synthetic", action="store_true", help="run only the FL_THERMAL cases (with --fl)")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder of FL_THERMAL's data.xlsx")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--seed-offset", type=int, default=0,
+                    help="shift every case seed by this much: a fresh set of networks, programmes and nulls")
     ap.add_argument("--results", type=Path, help="JSON lines of finished cases: kept, and skipped on a re-run")
     args = ap.parse_args(argv)
     done = {}
@@ -225,12 +228,13 @@ def main(argv: list[str] | None = None) -> int:
                 row = json.loads(line)
                 done[row["case"]] = row
     reg = registry.default()
-    per, nulls, dt = (2, 20, 120.0) if args.full else (1, 6, 120.0)
+    per, nulls, dt = (3, 20, 120.0) if args.full else (1, 6, 120.0)
     rows = []
     start = time.perf_counter()
-    cases = [] if args.skip_synthetic else [*hidden_cases(per, dt, reg), *null_cases(nulls, dt, reg)]
+    off = args.seed_offset
+    cases = [] if args.skip_synthetic else [*hidden_cases(per, dt, reg, off), *null_cases(nulls, dt, reg, off)]
     if args.full and not args.skip_synthetic:  # run time at the target's sampling: two 30 h recordings at 15 s
-        cases += [concealed_case(physics.load_network(m), h, 9000 + i, registry=reg, dt_s=15.0)
+        cases += [concealed_case(physics.load_network(m), h, 9000 + off + i, registry=reg, dt_s=15.0)
                   for i, (m, h) in enumerate([("vmc_spindle_s2", "slow_structural_mode"),
                                               ("motorized_spindle_s3", "coolant_coupling")])]
     for case in cases:
@@ -247,7 +251,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
         return 2
     fl = fl_cases(args.data, args.seed) if args.fl else []
-    print(f"# diagnose benchmark ({'full' if args.full else 'default'}: step {dt:g} s, "
+    print(f"# diagnose benchmark ({'full' if args.full else 'default'}: step {dt:g} s, seed offset {off}, "
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
     return 0

@@ -26,7 +26,8 @@ offset), its bounds and start, and its scale: ``log`` (positive, searched in log
 checks every path exists and that the bounds stay inside the network field's physical limits.
 
 Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options``, ``drivers`` and
-``signature`` (the residual signature a missing instance leaves, used as evidence text), implement
+``signature`` (the residual signature a missing instance leaves, used as evidence text) and ``laws`` (the
+nonlinear constitutive laws it assumes, if any), implement
 ``_apply(network, p, o)`` where ``p`` holds the parameter values and ``o`` the options, and
 ``_declare(before, after, p, o)`` returning the free parameters; override ``places`` when it can act in more
 than its default place. Register the class with ``thermodrift_register_mechanisms``.
@@ -91,6 +92,9 @@ class Mechanism:
     options: ClassVar[dict[str, Any]] = {}
     signature: ClassVar[str] = ""
     drivers: ClassVar[tuple[str, ...]] = ()  # recording roles the mechanism needs (speed, ambient, ...)
+    # Constitutive laws it assumes that are nonlinear in a temperature or a driver (a power of speed, T⁴), beyond
+    # the network's linear elements; of candidates the data cannot tell apart the finder names the one with fewest.
+    laws: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, **options: Any):
         unknown = set(options) - set(self.options)

@@ -61,12 +61,14 @@ def _outputs(net) -> np.ndarray:
 
 
 def check_signature_and_drivers(factory: Factory, params: dict) -> None:
-    """``signature`` is a sentence and every driver is a recording role."""
+    """``signature`` is a sentence, every driver is a recording role and ``laws`` is a tuple of named laws."""
     from thermodrift.core.recording import ROLES
 
     assert isinstance(factory.signature, str) and len(factory.signature) > 10, "signature must describe the residual"
     bad = [d for d in factory.drivers if d not in ROLES]
     assert not bad, f"drivers {bad} are not recording roles ({', '.join(ROLES)})"
+    assert isinstance(factory.laws, tuple) and all(isinstance(x, str) and x for x in factory.laws), \
+        "laws must be a tuple of law names"
 
 
 def check_declares_free_parameters(factory: Factory, params: dict) -> None:

@@ -30,6 +30,7 @@ class AxisDriveHeat(Mechanism):
     options = {"axes": ("x", "y"), "capacity_J_K": 6000.0, "ambient_W_K": 2.0}
     drivers = ("axis_velocity",)
     signature = "follows axis velocity; present with the spindle idle; position-dependent"
+    laws = ("drive heat as a power of axis velocity",)
 
     def _apply(self, network, p, o):
         added = []

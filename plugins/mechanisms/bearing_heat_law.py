@@ -29,6 +29,7 @@ class BearingHeatLaw(Mechanism):
     options = {"sources": None}
     drivers = ("speed",)
     signature = "steady ΔT vs n across plateaus follows another power law (n vs n^(5/3))"
+    laws = ("friction heat as a power of speed", "oil viscosity falling with temperature")
 
     def _apply(self, network, p, o):
         chosen = o["sources"]

@@ -20,6 +20,7 @@ class CentrifugalGrowth(Mechanism):
     options = {"axes": ("z",)}
     drivers = ("speed",)
     signature = "instantaneous step at speed changes ∝ n², no lag"
+    laws = ("growth ∝ speed²",)
 
     def _apply(self, network, p, o):
         names = target_outputs(network, self.id, o["axes"])

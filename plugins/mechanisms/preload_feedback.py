@@ -21,6 +21,7 @@ class PreloadFeedback(Mechanism):
     options = {"nodes": None, "hot": None, "cold": None}
     drivers = ("speed",)
     signature = "super-linear, self-reinforcing growth at high speed; ∝ (T_shaft − T_housing)·n"
+    laws = ("heat ∝ speed × (T_shaft − T_housing)",)
 
     def _apply(self, network, p, o):
         bearings = target_nodes(network, self.id, o["nodes"], ("bearing",))

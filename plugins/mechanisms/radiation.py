@@ -24,6 +24,7 @@ class Radiation(Mechanism):
     )
     options = {"nodes": None, "groups": ("structure", "housing"), "mean_degC": 25.0}
     signature = "∝ εσ(T⁴ − T_a⁴), nearly linear in ΔT; usually not separable from convection"
+    laws = ("Stefan–Boltzmann exchange ∝ T⁴ − T_a⁴",)
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])

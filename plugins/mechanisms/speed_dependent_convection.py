@@ -24,6 +24,7 @@ class SpeedDependentConvection(Mechanism):
     options = {"nodes": None, "groups": ("shaft", "bearing")}
     drivers = ("speed",)
     signature = "steady state over-predicted at high n; cool-down τ differs from warm-up τ"
+    laws = ("film coefficient as a power of speed",)
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])

@@ -22,8 +22,10 @@ Pipeline (:func:`diagnose`)::
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit
-    equivalence   a rival mechanism fitting within 5 % of the winner's gain: "not identifiable from this
-                  data", with the experiment that separates them
+    equivalence   of the passing candidates within 5 % of the best gain that the data cannot tell apart from
+                  it, the most parsimonious is named (:func:`.selection.parsimonious`); a rival mechanism
+                  fitting within 5 % of the named one's gain: "not identifiable from this data", with the
+                  experiment that separates them
 
 :func:`diagnose` returns a :class:`Diagnosis`; :mod:`.report` writes ``report.json`` (the shape outside
 checks read), ``report.md``, figures, the residual series and an optional MLflow run.
@@ -41,6 +43,7 @@ import pandas as pd
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import screening, selection
+from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import DriverWindow, condition_blocks, driver_windows
 from thermodrift.core.physics.network import Network
 from thermodrift.core.physics.scenarios import Scenario
@@ -48,7 +51,6 @@ from thermodrift.core.physics.scenarios import Scenario
 MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
-EQUIVALENT = 0.05   # rival within this share of the winner's gain: not identifiable
 MIN_SHARE = 0.05    # an accepted mechanism explains at least this share of the (balanced) misfit
 VAL_DRIFT_SLACK = 0.10  # ... and leaves the inner validation block's drift at most this much worse, or within
 VAL_DRIFT_Z = 3.0       # this many standard deviations of a noise-only sum of squares (χ², 2n variance)
@@ -152,8 +154,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     inner_rows = fit_rows & (t < final_cut(fit_rec))
     inner_rec = recording.select(inner_rows)
     inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
+    before_validation = ~np.isin(np.arange(int(blocks.max()) + 1), blocks[np.isin(rows, val_rows)])
     displacement = np.array([k == "displacement" for k in kinds])
-    base = screening.baseline_of(cal.network, scenario, channels, measured, rows)
+    base = screening.baseline_of(cal.network, scenario, channels, measured, rows, sigma)
     first = base
     findings: list[dict[str, Any]] = []
     rejected: list[dict[str, Any]] = []
@@ -182,7 +185,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
         validation = selection.Validation(inner_rec, inner, val_rows, screening.baseline_of(
-            base.network, scenario, channels, measured, inner).readings)
+            base.network, scenario, channels, measured, inner, sigma).readings, screen, before_validation)
         fitted = []
         for c in ranked:
             try:
@@ -204,7 +207,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             for f in fitted:
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": _why_not(f, alpha, m, floor)})
             break
-        win = max(passing, key=lambda f: f.dsse_bal)
+        win = selection.parsimonious(passing, alpha)
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
         sse0_blocks = np.zeros(int(blocks.max()) + 1)
@@ -226,7 +229,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
         accepted.add(win.candidate.mechanism)
-        base = screening.baseline_of(win.network, scenario, channels, measured, rows)
+        base = screening.baseline_of(win.network, scenario, channels, measured, rows, sigma)
     listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
     for mid in registry.names("mechanism"):
         if (only is None or mid in only) and mid not in listed:

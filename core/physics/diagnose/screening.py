@@ -18,7 +18,7 @@ at once (cutting heat into the tool and the spindle) is a greedy union of its be
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from scipy import stats
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import predict
 from thermodrift.core.physics.network import Network, TemperatureSensor
+from thermodrift.core.physics.synthetic import PT100_TOLERANCE
 
 # Shapes screened besides the defaults for the built-in mechanisms whose response shape depends on a parameter.
 SHAPES: dict[str, list[dict[str, float]]] = {
@@ -40,6 +41,12 @@ SHAPES: dict[str, list[dict[str, float]]] = {
 # temperatures are nearly collinear, and keeping directions below 1e-6 of the largest made the refitted drift
 # extrapolate to the unseen block 2-3 times worse on FL_THERMAL.
 LINEAR_RCOND = 1e-6
+# Boundary temperatures the network is driven by: each is read by a sensor with an unknown constant offset, so one
+# offset per input is solved with the linear parameters (otherwise a mechanism acting on the network's
+# temperature-dependent parts scores by absorbing it), bounded by the loosest Pt100 class: a larger one is no
+# sensor offset but something the network misses.
+BOUNDARY_INPUTS = ("ambient_degC", "coolant_inlet_degC")
+BOUNDARY_CLASS = "B"
 # Mechanisms whose parameters may take either sign: a negative fitted amplitude is still physical.
 _SIGNED = {"bearing_heat_law", "centrifugal_growth", "slow_structural_mode", "thermal_tilt", "contact_resistance"}
 
@@ -49,8 +56,9 @@ class Baseline:
     """A network's readings over the recording and what its linear parameters can absorb.
 
     ``raw`` are the network's own noise-free readings; ``readings`` the same with every channel's linear
-    parameters (offset; sensitivities, tilts, centrifugal term and offset) solved again by least squares on the
-    fitting rows at full resolution, so baseline and augmented networks are compared on equal terms.
+    parameters (offset; sensitivities, tilts, centrifugal term and offset) and the boundary inputs' offsets
+    (:data:`BOUNDARY_INPUTS`, one each, shared by all channels) solved again by least squares on the fitting
+    rows at full resolution, so baseline and augmented networks are compared on equal terms.
     """
 
     network: Network
@@ -86,9 +94,10 @@ class Candidate:
     part_betas: list = field(default_factory=list)  # their temperature amplitudes
 
 
-def baseline_of(network: Network, scenario, channels: list[str], measured: np.ndarray,
-                rows: np.ndarray) -> Baseline:
-    """Readings of ``network`` over ``scenario`` for ``channels``, refitted linearly on ``rows``."""
+def baseline_of(network: Network, scenario, channels: list[str], measured: np.ndarray, rows: np.ndarray,
+                sigma: np.ndarray) -> Baseline:
+    """Readings of ``network`` over ``scenario`` for ``channels``, refitted linearly on ``rows``; ``sigma`` per
+    channel (°C, µm) weighs the channels in the shared boundary offsets (:func:`_boundary_offsets`)."""
     readings, X = predict(network, scenario)
     idx = {n: i for i, n in enumerate(network.node_names)}
     n_ref = network.reference_speed_rpm
@@ -107,15 +116,49 @@ def baseline_of(network: Network, scenario, channels: list[str], measured: np.nd
             cols.append(ratio2)
         nuisance.append(np.column_stack(cols + [ones[:, 0]]))
     raw = readings[channels].to_numpy()
-    fitted = raw.copy()
+    fitted = raw + _boundary_offsets(network, scenario, channels, measured, rows, sigma, raw, nuisance)
     for c, Z in enumerate(nuisance):
         if Z.shape[1] == 1:  # a temperature channel: its offset
-            fitted[:, c] += float(np.mean(measured[rows, c] - raw[rows, c]))
+            fitted[:, c] += float(np.mean(measured[rows, c] - fitted[rows, c]))
             continue
         scale = np.maximum(np.abs(Z[rows]).max(axis=0), 1e-12)
         coef = np.linalg.lstsq(Z[rows] / scale, measured[rows, c], rcond=LINEAR_RCOND)[0]
         fitted[:, c] = (Z / scale) @ coef
     return Baseline(network, raw, fitted, nuisance)
+
+
+def _boundary_offsets(network: Network, scenario, channels: list[str], measured: np.ndarray, rows: np.ndarray,
+                      sigma: np.ndarray, raw: np.ndarray, nuisance: list[np.ndarray]) -> np.ndarray:
+    """The readings' change (samples, channels) from the constant offsets of the boundary inputs
+    (:data:`BOUNDARY_INPUTS`) that best explain ``measured`` on ``rows``: one offset (K) per input, shared by
+    every channel, within the Pt100 tolerance of :data:`BOUNDARY_CLASS` at the input's mean temperature, fitted
+    by σ-weighted least squares beside each channel's own linear parameters."""
+    from scipy.optimize import lsq_linear
+
+    responses, tolerance = [], []
+    base, slope = PT100_TOLERANCE[BOUNDARY_CLASS]
+    for col in BOUNDARY_INPUTS:  # the readings' change when the input is 1 K higher throughout
+        frame = scenario.frame.copy()
+        frame[col] = frame[col] + 1.0
+        r = predict(network, type(scenario)(frame, scenario.name))[0][channels].to_numpy() - raw
+        if np.abs(r).max() > 1e-9:
+            responses.append(r)
+            tolerance.append(base + slope * abs(float(scenario.frame[col].mean())))
+    if not responses:
+        return np.zeros_like(raw)
+    k = len(responses)
+    lhs, rhs = np.zeros((k, k)), np.zeros(k)
+    for c, Z in enumerate(nuisance):
+        Q = _basis(Z, rows)
+        target = measured[:, c] - (raw[:, c] if Z.shape[1] == 1 else 0.0)  # a displacement's map is re-solved
+        A = np.column_stack([_project(Q, rows, r[:, c]) for r in responses]) / sigma[c]
+        lhs += A.T @ A
+        rhs += A.T @ _project(Q, rows, target) / sigma[c]
+    w, V = np.linalg.eigh(lhs)  # ||Aδ − y||² = ||Hδ − H⁻¹Aᵀy||² + const with AᵀA = H²
+    half = (V * np.sqrt(np.maximum(w, 1e-12 * max(w.max(), 1e-300)))) @ V.T
+    tol = np.array(tolerance)
+    delta = lsq_linear(half, np.linalg.solve(half, rhs), bounds=(-tol, tol)).x
+    return sum(d * r for d, r in zip(delta, responses))
 
 
 def candidates(registry, base: Baseline, scenario, channels: list[str], recording,
@@ -322,6 +365,17 @@ def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
     out.block_stats, out.projected = first.block_stats, first.projected
     out.gram = gram
     return out
+
+
+def restricted(screen: Screen, cand: Candidate, keep: np.ndarray) -> Candidate:
+    """``cand`` with its amplitudes fitted on the blocks marked ``keep`` alone (bool per block)."""
+    nonneg = _nonneg_first(screen, cand)
+    if not cand.parts:
+        beta = _beta(cand.block_stats[keep].sum(axis=0), nonneg)
+        return replace(cand, beta={n: float(b) for n, b in zip(screen.group_names, beta)})
+    tot = cand.gram[keep].sum(axis=0)
+    first = _solve(tot[0], nonneg) if screen.temps_first else np.zeros(len(cand.parts))
+    return replace(cand, part_betas=[float(b) for b in first])
 
 
 def _place_text(options: dict[str, Any]) -> str:

@@ -7,10 +7,24 @@ calibrated values. Its score is the drop of the noise-weighted residual sum of s
 known noise σ that is the likelihood-ratio statistic, χ²(free parameters) when nothing is missing, tested at a
 Bonferroni level α/m over the m screened candidates.
 
+The calibration search minimises its own objective (each channel weighted by the larger of its noise and
+its misfit at the start), not this statistic, and on some recordings ends where the statistic is worse than
+at the start it was given (the screening's linearised amplitude). The start, with only the linear parameters
+solved, is therefore scored too and the better of the two by the balanced statistic is kept (the search
+result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
+parameters its search leaves fixed (the slow mode's conductance) is fitted from two starts, those at their
+default and at the screening's temperature amplitude, and the better is kept alike.
+
+Of the passing candidates that explain the residual within :data:`EQUIVALENT` of the best one and that the
+data cannot tell apart from it (:func:`indistinguishable`), the most parsimonious is named: the fewest free
+parameters, then the fewest nonlinear constitutive laws (``Mechanism.laws``); the others are reported as not
+identifiable from this data, with the experiment that separates them.
+
 The same candidate is also fitted by re-simulation on the screening rows before an inner validation block
 (their last condition run or runs, cut like the final block) and scored on that block against the baseline
 refitted on the same rows: a mechanism must predict data its fit did not see, the way the final block and
-the controller will use it, not only lower the misfit where it was fitted.
+the controller will use it, not only lower the misfit where it was fitted. Its start amplitudes are read
+from the screening blocks before that block only.
 """
 
 from __future__ import annotations
@@ -24,9 +38,11 @@ import numpy as np
 from scipy import stats
 
 from thermodrift.core.physics.calibration import FreeParameter, calibrate
-from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, _place_text, baseline_of
+from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, Screen, _place_text, baseline_of, restricted
 from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
+
+EQUIVALENT = 0.05   # rival within this share of the winner's balanced gain: a candidate for "not identifiable"
 
 # The experiment that exposes each mechanism on its own (named when two candidates fit equally well).
 EXPERIMENTS = {
@@ -66,34 +82,60 @@ class Fitted:
     val_disp_n: int = 0              # the number of displacement values it sums
 
 
-def _declared(cand: Candidate, base: Network) -> tuple[Network, list[tuple[FreeParam, float]]]:
-    """The augmented network at start values and each free parameter with its start value."""
+def _declared(cand: Candidate, base: Network,
+              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParam, float]]] | None:
+    """The augmented network at start values and each free parameter with its start value.
+
+    The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism; with
+    ``scale_held``, those of a shaped one (:data:`SHAPES`) that its search leaves fixed (:func:`_held_amplitudes`;
+    None when it has none).
+    """
     parts = cand.parts or [cand]
     amps = cand.part_betas if cand.parts else [cand.beta.get("temperatures", 0.0)]
-    net, out = base, []
+    net, out, scaled = base, [], False
     for part, amp in zip(parts, amps):
-        net, free = part.factory(**part.options).declare(net, **part.shape)
+        before = net
+        mech = part.factory(**part.options)
+        net, free = mech.declare(before, **part.shape)
+        held = _held_amplitudes(part, free, amp) if scale_held and cand.mechanism in SHAPES else {}
+        if held:
+            net, free = mech.declare(before, **part.shape, **held)
+            scaled = True
         if len(parts) > 1:
             free = [dataclasses.replace(fp, name=f"{fp.name}@{_place_text(part.options)}") for fp in free]
         logs = [fp for fp in free if fp.scale == "log"]
         for fp in free:
             start = fp.value
-            # the screening amplitude rescales the first log parameter of a pure-amplitude mechanism
             if logs and fp is logs[0] and cand.mechanism not in SHAPES and amp > 0:
                 start = float(np.clip(fp.value * amp, fp.low, fp.high))
             out.append((fp, start))
-    return net, out
+    return None if scale_held and not scaled else (net, out)
+
+
+def _held_amplitudes(part: Candidate, free: list[FreeParam], amp: float) -> dict[str, float]:
+    """Amplitude parameters (neutral 0) of a shaped candidate that the fit does not search, at their default ×
+    the screening's temperature amplitude ``amp``: a heat path held at its default would keep the default's
+    temperature response, however much the screening scaled it (within the parameter's bounds; none when
+    ``amp`` ≤ 0)."""
+    if amp <= 0:
+        return {}
+    searched = {fp.name.split("[")[0] for fp in free} | set(part.shape)
+    return {p.name: float(np.clip(p.default * amp, p.low, p.high)) for p in part.factory.parameters
+            if p.neutral == 0.0 and p.default != 0.0 and p.name not in searched}
 
 
 @dataclass
 class Validation:
     """The inner validation split of the screening rows: fit on ``recording`` (rows ``inner``), score on
-    ``rows``; ``base_readings`` is the baseline refitted linearly on ``inner``."""
+    ``rows``; ``base_readings`` is the baseline refitted linearly on ``inner``; ``keep`` marks the screening
+    blocks wholly before ``rows`` (bool per block of ``screen``), the ones a start amplitude may be read from."""
 
     recording: Any
     inner: np.ndarray
     rows: np.ndarray
     base_readings: np.ndarray
+    screen: Screen
+    keep: np.ndarray
 
 
 def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[str], measured: np.ndarray,
@@ -108,7 +150,7 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
                   blocks, max_evaluations, level, intervals=True)
     if validation is not None:
-        inner = _fit(cand, base, validation.recording, scenario, channels, measured, sigma, weights,
+        inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario, channels, measured, sigma, weights,
                      validation.base_readings, validation.inner, None, max_evaluations, level,
                      intervals=False)
         d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
@@ -123,23 +165,31 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
 
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
          max_evaluations, level, intervals: bool) -> Fitted:
-    net, declared = _declared(cand, base)
-    searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
-    net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
-    free = []
-    for fp, v in searched:
-        lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-        if fp.scale == "log":
-            lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
-        free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi, fp.unit,
-                                  log=fp.scale == "log"))
-    res = calibrate(fit_recording, net, free=free, intervals=intervals and bool(free), level=level,
-                    max_evaluations=max_evaluations)
-    readings = baseline_of(res.network, scenario, channels, measured, rows).readings
     d0 = (((measured - base_readings) / sigma)[rows]) ** 2
-    d1 = (((measured - readings) / sigma)[rows]) ** 2
+    best = None
+    for start in (_declared(cand, base), _declared(cand, base, scale_held=True)):
+        if start is None:
+            continue
+        net, declared = start
+        searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
+        net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
+        free = []
+        for fp, v in searched:
+            lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
+            if fp.scale == "log":
+                lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
+            free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi,
+                                      fp.unit, log=fp.scale == "log"))
+        for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
+            res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
+                            level=level, max_evaluations=max_evaluations)
+            readings = baseline_of(res.network, scenario, channels, measured, rows, sigma).readings
+            d1 = (((measured - readings) / sigma)[rows]) ** 2
+            dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
+            if best is None or dsse_bal > best[3]:
+                best = (res, readings, d1, dsse_bal, declared)
+    res, readings, d1, dsse_bal, declared = best
     dsse = float(d0.sum() - d1.sum())
-    dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
     dof = max(len(declared), 1)
     values = res.network.parameters()
     params, ci = {}, {}
@@ -165,10 +215,45 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
                   float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal)
 
 
+def indistinguishable(raw: np.ndarray, bal: np.ndarray, alpha: float) -> bool:
+    """True unless a candidate explains the residual better than another beyond chance, given the per-block
+    differences of their gains (``raw``: noise-weighted, ``bal``: balanced): by more than the critical
+    likelihood ratio of one parameter at level ``alpha``, and consistently over the condition blocks (one-sided
+    paired t-test of the balanced differences at ``alpha``)."""
+    if float(raw.sum()) <= stats.chi2.isf(alpha, 1):
+        return True
+    d = bal
+    if len(d) < 2:
+        return False
+    se = float(np.std(d, ddof=1)) / math.sqrt(len(d))
+    return not float(np.mean(d)) > stats.t.isf(alpha, len(d) - 1) * se
+
+
+def _simplest(fitted: list[Fitted], gain: np.ndarray, raw: np.ndarray, bal: np.ndarray, best: int,
+              eligible: list[int], alpha: float) -> int:
+    """Index of the simplest eligible candidate tied with ``best``: within :data:`EQUIVALENT` of its balanced
+    ``gain`` and not beaten by it beyond chance (``raw``, ``bal``: per-block gains, one row per candidate);
+    fewest free parameters, then fewest nonlinear laws, then the largest gain."""
+    tied = [i for i in eligible if i == best or (
+        fitted[i].candidate.mechanism != fitted[best].candidate.mechanism
+        and gain[i] >= (1 - EQUIVALENT) * gain[best] and indistinguishable(raw[best] - raw[i], bal[best] - bal[i],
+                                                                           alpha))]
+    return min(tied, key=lambda i: (fitted[i].dof, len(fitted[i].candidate.factory.laws), -gain[i]))
+
+
+def parsimonious(passing: list[Fitted], alpha: float) -> Fitted:
+    """The candidate to name among ``passing``: the simplest of those the data cannot tell apart from the one
+    with the largest balanced gain (:func:`_simplest`)."""
+    gain = np.array([f.dsse_bal for f in passing])
+    raw, bal = np.stack([f.block_raw for f in passing]), np.stack([f.block_bal for f in passing])
+    return passing[_simplest(passing, gain, raw, bal, int(np.argmax(gain)), list(range(len(passing))), alpha)]
+
+
 def bootstrap_inclusion(fitted: list[Fitted], sse0_bal_blocks: np.ndarray, n_tests: int, alpha: float,
                         min_share: float, draws: int, seed: int) -> dict[str, float]:
     """Share of block-bootstrap resamples (condition blocks drawn with replacement) in which each fitted
-    mechanism has the largest balanced gain and passes the same tests as the selection."""
+    mechanism is the one named (the largest balanced gain, or the simplest tied with it, :func:`_simplest`)
+    among those passing the same share and likelihood-ratio tests as the selection."""
     rng = np.random.default_rng(seed)
     nb = len(sse0_bal_blocks)
     raw = np.stack([f.block_raw for f in fitted])
@@ -177,10 +262,11 @@ def bootstrap_inclusion(fitted: list[Fitted], sse0_bal_blocks: np.ndarray, n_tes
     for _ in range(draws):
         pick = rng.integers(0, nb, nb)
         g = bal[:, pick].sum(axis=1)
+        ok = [i for i, f in enumerate(fitted) if g[i] > min_share * sse0_bal_blocks[pick].sum()
+              and stats.chi2.sf(max(float(raw[i, pick].sum()), 0.0), f.dof) < alpha / n_tests]
         best = int(np.argmax(g))
-        f = fitted[best]
-        if g[best] <= min_share * sse0_bal_blocks[pick].sum():
+        if best not in ok:
             continue
-        if stats.chi2.sf(max(float(raw[best, pick].sum()), 0.0), f.dof) < alpha / n_tests:
-            wins[f.candidate.mechanism] = wins.get(f.candidate.mechanism, 0) + 1
+        f = fitted[_simplest(fitted, g, raw[:, pick], bal[:, pick], best, ok, alpha)]
+        wins[f.candidate.mechanism] = wins.get(f.candidate.mechanism, 0) + 1
     return {m: w / draws for m, w in wins.items()}
