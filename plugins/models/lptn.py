@@ -6,9 +6,10 @@ on the training part. It predicts as a controller runs it: a state observer (a s
 the calibrated network, :class:`thermodrift.core.physics.calibration.StateObserver`) carries the node
 temperatures from row to row, corrected by the measured temperatures; the hidden nodes run on the speed (and
 ambient) history. Displacement is the expansion map of the observed state, refitted on the training states with
-its ridge strength chosen there by blocked cross-validation (``objective.cv_ridge``). ``history_length = None``: ``predict(X, history)`` starts the observer at the
-first history row (else at the first row of ``X``, at rest with its readings), and ``streamer(history)`` carries
-the observer state so each ``update(row)`` is one filter step.
+its ridge strength chosen there by blocked cross-validation (``objective.cv_ridge``). ``history_length = None``:
+``predict(X, history)`` starts the observer at the first history row (else at the first row of ``X``, at rest
+with its readings), and ``streamer(history)`` carries the observer state so each ``update(row)`` is one filter
+step.
 
 ``lptn_hybrid`` adds a data-driven residual model: ridge regression (``alpha``) of the training residual
 y − physics on the standardised measured temperatures and the physics prediction.

@@ -62,7 +62,8 @@ def fit_rows(time_s: np.ndarray, speed_rpm: np.ndarray | None, time_constants_s:
              max_samples: int = MAX_FIT_SAMPLES) -> tuple[np.ndarray, float]:
     """Rows of the fit grid and its step (s): the shorter of the recording's shortest speed block over
     :data:`GRID_PER_BLOCK` and its shortest warm-up time constant over :data:`GRID_PER_TAU` (the simulation
-    between grid points stays exact: inputs are held), a whole number of samples, plus the first sample of every speed block (so held inputs change exactly where the speed does).
+    between grid points stays exact: inputs are held), a whole number of samples, plus the first sample of every
+    speed block (so held inputs change exactly where the speed does).
     The step grows if the grid would exceed ``max_samples``."""
     t = np.asarray(time_s, dtype=float)
     if len(t) < 3:

@@ -150,9 +150,9 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
                   blocks, max_evaluations, level, intervals=True)
     if validation is not None:
-        inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario, channels, measured, sigma, weights,
-                     validation.base_readings, validation.inner, None, max_evaluations, level,
-                     intervals=False)
+        inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario,
+                     channels, measured, sigma, weights, validation.base_readings, validation.inner, None,
+                     max_evaluations, level, intervals=False)
         d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
