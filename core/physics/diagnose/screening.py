@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from scipy import stats
+from scipy.optimize import lsq_linear
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import predict
@@ -133,8 +134,6 @@ def _boundary_offsets(network: Network, scenario, channels: list[str], measured:
     (:data:`BOUNDARY_INPUTS`) that best explain ``measured`` on ``rows``: one offset (K) per input, shared by
     every channel, within the Pt100 tolerance of :data:`BOUNDARY_CLASS` at the input's mean temperature, fitted
     by σ-weighted least squares beside each channel's own linear parameters."""
-    from scipy.optimize import lsq_linear
-
     responses, tolerance = [], []
     base, slope = PT100_TOLERANCE[BOUNDARY_CLASS]
     for col in BOUNDARY_INPUTS:  # the readings' change when the input is 1 K higher throughout

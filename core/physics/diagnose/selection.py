@@ -222,11 +222,10 @@ def indistinguishable(raw: np.ndarray, bal: np.ndarray, alpha: float) -> bool:
     paired t-test of the balanced differences at ``alpha``)."""
     if float(raw.sum()) <= stats.chi2.isf(alpha, 1):
         return True
-    d = bal
-    if len(d) < 2:
+    if len(bal) < 2:
         return False
-    se = float(np.std(d, ddof=1)) / math.sqrt(len(d))
-    return not float(np.mean(d)) > stats.t.isf(alpha, len(d) - 1) * se
+    se = float(np.std(bal, ddof=1)) / math.sqrt(len(bal))
+    return not float(np.mean(bal)) > stats.t.isf(alpha, len(bal) - 1) * se
 
 
 def _simplest(fitted: list[Fitted], gain: np.ndarray, raw: np.ndarray, bal: np.ndarray, best: int,
