@@ -121,6 +121,15 @@ class TransferFunction(ThermalModel):
     def streamer(self, history: pd.DataFrame | None = None) -> "TransferFunctionStreamer":
         return TransferFunctionStreamer(self, history)
 
+    def export_state(self) -> dict:
+        """Runtime ``transfer_function``: column groups, drive references, filter decays and the read-out."""
+        return {"runtime": "transfer_function", "inputs": [str(c) for c in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": None,
+                "temperature_columns": list(self.temperature_columns_), "drive_columns": list(self.drive_columns_),
+                "drive_ref": np.asarray(self.drive_ref_, dtype=float), "powers": np.asarray(self.powers, dtype=float),
+                "decay": self.decay_, "taus_s": self.taus_s_, "sample_s": self.sample_s_,
+                "weights": self.weights_, "intercept": self.intercept_}
+
 
 class TransferFunctionStreamer:
     """Carries the filter state; ``update(row)`` costs a handful of small numpy operations."""
