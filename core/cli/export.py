@@ -21,6 +21,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import json
+    import os
     import platform
     import tempfile
 
@@ -41,16 +42,22 @@ def run(args: argparse.Namespace) -> int:
     except MlflowException:
         raise InputError(f"no MLflow run {args.run_id!r} at {args.tracking_uri}",
                          hint="pass the id that `thermodrift run` printed and the same --tracking-uri") from None
-    logged = {a.path for a in client.list_artifacts(args.run_id)}
-    for needed in ("model", deployment.LIMITS):
-        if needed not in logged:
-            raise InputError(f"run {args.run_id} has no {needed!r} artifact",
-                             hint="export a job run of `thermodrift run` (not a sweep's parent run); rerun the job "
-                                  "with this version if it was logged by an older one")
+    if deployment.LIMITS not in {a.path for a in client.list_artifacts(args.run_id)}:
+        raise InputError(f"run {args.run_id} has no {deployment.LIMITS!r} artifact",
+                         hint="export a job run of `thermodrift run` (not a sweep's parent run); rerun the job "
+                              "with this version if it was logged by an older one")
+    os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     with tempfile.TemporaryDirectory() as tmp:
         local = Path(mlflow.artifacts.download_artifacts(run_id=args.run_id, dst_path=tmp,
                                                          tracking_uri=args.tracking_uri))
-        stored = next(p.parent for p in (local / "model").rglob("model.json"))
+        try:
+            model_dir = Path(mlflow.artifacts.download_artifacts(artifact_uri=f"runs:/{args.run_id}/model",
+                                                                 dst_path=f"{tmp}/logged_model",
+                                                                 tracking_uri=args.tracking_uri))
+        except MlflowException:
+            raise InputError(f"run {args.run_id} has no logged model", hint="export a job run of `thermodrift run`") \
+                from None
+        stored = next(p.parent for p in model_dir.rglob("model.json"))
         model = artifacts.load(stored)
         try:
             state = model.export_state()
