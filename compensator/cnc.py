@@ -155,4 +155,5 @@ class Writer:
 
 
 def _num(v: float) -> str:
-    return "nan" if not np.isfinite(v) else f"{v:.10g}"
+    """Shortest text that reads back as the same float (so a replay compares to 1e-9 µm and better)."""
+    return repr(float(v)) if np.isfinite(v) else "nan"
