@@ -66,9 +66,9 @@ def warmup_rows(state: dict[str, Any], sampling_interval_s: float) -> int:
     """Rows a fresh streamer of ``state`` needs before its output no longer depends on how it started."""
     if state.get("history_length") is not None:
         return int(state["history_length"])
-    taus = np.asarray(state.get("taus_s", []), dtype=float)
-    if state.get("runtime") == "pipeline":
+    if state.get("runtime") == "pipeline" and state.get("features") is None:
         return warmup_rows(state["model"], sampling_interval_s)
+    taus = np.asarray((state.get("features") or {}).get("taus_s", []), dtype=float)
     longest = float(taus.max()) if len(taus) else 4 * 3600.0
     return int(math.ceil(FILTER_SETTLE * longest / sampling_interval_s))
 

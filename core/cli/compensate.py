@@ -134,8 +134,8 @@ def _rows(source: str):
 def _manifest(path: str, inputs: list[str]):
     """(time column, time scale to s, {input column: (scale, offset)} to the canonical units the model was
     trained in), read with core/recording's manifest reader and unit table (one home for units)."""
-    from thermodrift.core import recording
     from thermodrift.core.errors import InputError
+    from thermodrift.core.recording import loading as recording  # its manifest reader and unit table
 
     manifest = recording._read_manifest(path, ())
     missing = [c for c in inputs if c not in manifest.channels]

@@ -91,12 +91,9 @@ class TransferFunction(ThermalModel):
         return TransferFunctionStreamer(self, history)
 
     def export_state(self) -> dict:
-        """Runtime ``transfer_function``: column groups, drive references, filter decays and the read-out."""
+        """Runtime ``transfer_function``: the feature stage's state and the affine read-out of its features."""
         return {"runtime": "transfer_function", "inputs": [str(c) for c in self.feature_names_in_],
-                "targets": list(self.target_names_), "history_length": None,
-                "temperature_columns": list(self.temperature_columns_), "drive_columns": list(self.drive_columns_),
-                "drive_ref": np.asarray(self.drive_ref_, dtype=float), "powers": np.asarray(self.powers, dtype=float),
-                "decay": self.decay_, "taus_s": self.taus_s_, "sample_s": self.sample_s_,
+                "targets": list(self.target_names_), "history_length": None, "features": self.features_.to_state(),
                 "weights": self.weights_, "intercept": self.intercept_}
 
 
