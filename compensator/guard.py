@@ -75,6 +75,9 @@ class Compensator:
         self._fb: tuple[str, object] | None = None  # the fallback in use: (sensor, streamer)
         warm = max([int(f.get("warmup_rows", 0)) for f in self.fallbacks.values()] or [0])
         self.buffer: deque = deque(maxlen=max(warm, 1))  # recent model rows (failed values replaced)
+        if self.fallbacks and history is not None:  # a fallback switched in at the first row warms on history
+            times = history_times_s if history_times_s is not None else np.arange(len(history), dtype=float)
+            self.buffer.extend(zip(np.asarray(times, dtype=float), np.asarray(history, dtype=float)))
         mid = np.array([(package.limits["inputs"][c]["min"] + package.limits["inputs"][c]["max"]) / 2 for c in ins])
         self.last_good = mid  # until a sensor reads well once, its training mid-range stands in
         self.jump_allow = self.jump.copy()  # a failed row widens the allowed jump by one training step more
