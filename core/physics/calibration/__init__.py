@@ -20,13 +20,15 @@ Public API (stable; the missing-physics finder builds on it)::
     result.prior                         # Prior on the nonlinear parameters (strength, how it was chosen) or None
     result.to_dict()                     # calibration.json: rmse_initial and rmse at the top level
 
-    cal.FreeParameter(name, paths=("edges.a-b.G_W_K",), value=2.0, low=0.1, high=50.0, unit="W/K", log=True)
+    cal.FreeParameter(name, paths=("edges.a-b.G_W_K",), value=2.0, low=0.1, high=50.0, unit="W/K", scale="log")
     cal.auto_network(recording)          # AutoBaseline(network, free, assumptions, channel_nodes, time_constants_s)
     cal.predict(network, scenario)       # open-loop readings and node temperatures
     cal.StateObserver(network, sensors)  # Kalman filter over the network with the measured temperatures
 
 A mechanism adds its own parameters by passing ``free=[*auto.free, *mechanism_parameters]`` with a network that
-contains its element. Modules by job: :mod:`.free` (free parameters), :mod:`.auto` (the auto network and what
+contains its element: :meth:`Mechanism.declare <thermodrift.core.physics.mechanisms.Mechanism.declare>` returns them
+as :class:`FreeParameter` s, the one free-parameter type (``scale="projected"`` ones are solved linearly and are not
+searched: leave them out). Modules by job: :mod:`.free` (free parameters), :mod:`.auto` (the auto network and what
 it assumes), :mod:`.objective` (re-simulation, variable projection, ridge sensitivities, the fit grid),
 :mod:`.uncertainty` (intervals, identifiability), :mod:`.prior` (the auto network's prior), :mod:`.fit` (the search
 and the result), :mod:`.prediction` (open loop and the state observer).
