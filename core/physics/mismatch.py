@@ -12,7 +12,8 @@ physics finder starts from the top of that list.
 
 Outputs: :meth:`MismatchMap.to_dict` (``mismatch.json``), :func:`plot_heatmap` (time × channel PNG),
 :func:`plot_before_after` (measured, initial guess, calibrated). Logging them is the verb's
-(``thermodrift calibrate``, :mod:`thermodrift.core.cli.calibrate`); this module only computes and draws.
+(``thermodrift calibrate``, through :func:`thermodrift.core.tracking.log_calibration`); this module only
+computes and draws.
 """
 
 from __future__ import annotations
