@@ -34,8 +34,8 @@ from thermodrift.core.physics.calibration.free import FreeParameter, set_values
 from thermodrift.core.physics.integrate import CompiledNetwork
 from thermodrift.core.physics.network import DisplacementSensor, Network, TemperatureSensor
 from thermodrift.core.physics.scenarios import Scenario
-from thermodrift.core.physics.sensors import TEMPERATURE_ROLES, temperature_reading
-from thermodrift.core.recording import speed_segments
+from thermodrift.core.physics.sensors import temperature_reading
+from thermodrift.core.recording import TEMPERATURE_ROLES, speed_segments
 
 GRID_PER_BLOCK = 8           # fit-grid steps per shortest speed block
 GRID_PER_TAU = 2             # fit-grid steps per shortest warm-up time constant
