@@ -56,7 +56,8 @@ class StateObserver:
     standard deviations (K); missing entries take 0.01 K and 0.1 K. Networks with signal-driven sources
     (cutting power, axis velocity) are not supported: the observer takes speed, ambient and coolant only.
 
-    State: :attr:`x` (node temperatures, °C) after the last row, ``None`` before the first.
+    State: :attr:`x` (node temperatures, °C) after the last row, ``None`` before the first (and after
+    :meth:`reset`).
     """
 
     def __init__(self, network: Network, sensors: Sequence[str], noise_K: Mapping[str, float] | None = None,
@@ -87,6 +88,13 @@ class StateObserver:
         self.x: np.ndarray | None = None
         self._last: tuple | None = None  # (time s, speed rpm, ambient °C, coolant °C) of the last row
         self._row_key: tuple | None = None  # (speed, dt) of the stacked one-row matrix below
+
+    def reset(self) -> None:
+        """Forget the state: the next row starts the filter again (at rest, observed nodes set to the readings).
+        The per-level filter matrices stay cached."""
+        self.x = None
+        self._last = None
+        self._row_key = None
 
     def _level(self, speed: float, coolant_flow: float, dt: float) -> tuple:
         """(F = (I − KC)Φ, G = (I − KC)Γ, K) of one level, cached."""
