@@ -34,7 +34,7 @@ from hydra.experimental.callback import Callback
 from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 
-from thermodrift.core import artifacts
+from thermodrift.core import artifacts, deployment
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
@@ -181,6 +181,8 @@ def log_result(result, params: dict[str, Any]) -> None:
                 mlflow.log_artifact(str(path), artifact_path=where)
     # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
     artifacts.log_model(result.model, result.spec.model)
+    if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
+        deployment.log(result)
 
 
 def _log_dataset(result) -> None:

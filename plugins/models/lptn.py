@@ -151,6 +151,23 @@ class LPTN(ThermalModel):
         observed state x and readings T (the hybrid folds its residual model in; None: no such term)."""
         return self.coef_, None, None, self.intercept_ - self.reference_ @ self.coef_
 
+    def export_state(self) -> dict:
+        """Runtime ``lptn``: the network's (A, B) per 10 rpm speed level from 0 to twice the training maximum, the
+        observer's matrices and the read-out of :meth:`_row_map` (the auto network's reference speed is the
+        training maximum)."""
+        comp = self.observer_.comp
+        top = 2.0 * self.network_.reference_speed_rpm
+        levels = [comp.matrices(s, 1.0) for s in np.arange(0.0, top + 10.0, 10.0)]
+        W_x, W_T, w_ambient, c = self._row_map()
+        return {"runtime": "lptn", "inputs": [str(col) for col in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": None,
+                "temperature_columns": list(self.temperatures_), "speed_column": self.speed_,
+                "ambient_column": self.ambient_, "ambient_default_degC": cal.AUTO_AMBIENT_DEGC,
+                "speed_step_rpm": 10.0, "A": np.array([a for a, _ in levels]),
+                "B": np.array([b[:, :3] for _, b in levels]), "C": self.observer_.C,
+                "offsets": self.observer_.offsets, "R": self.observer_.R, "q": self.observer_.q,
+                "W_x": W_x, "W_T": W_T, "w_ambient": w_ambient, "c": c}
+
 
 class _LPTNStreamer(Streamer):
     """One observer step per row (the row's name is its time in s)."""
