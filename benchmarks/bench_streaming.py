@@ -6,8 +6,9 @@ Each model is built with its constructor defaults (torch models: the architectur
 ``--epochs`` epochs only, since latency does not depend on the weights), fitted on the first 70 % of the recording's
 rows, and streamed over the next ``--rows`` rows after the training rows as history. ms per update is the median
 over ``--repeats`` passes (one torch thread), wall and CPU time (a busy machine stretches the wall time, not the
-CPU time); the two streamers run side by side, and the speed-up is the ratio of their CPU times. "max |stream - batch|" is the largest difference (µm) from ``predict(rows, history)`` (the contract:
-at most 1e-4 µm).
+CPU time); the two streamers run side by side, and the speed-up is the ratio of their CPU times.
+"max |stream - batch|" is the largest difference (µm) from ``predict(rows, history)`` (the contract: at most
+1e-4 µm).
 
     python benchmarks/bench_streaming.py                         # every model on the tiny recording
     python benchmarks/bench_streaming.py --dataset motorized_spindle_s3 --models lstm dltk --epochs 2
