@@ -24,6 +24,8 @@ VERBS = {
     "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
     "report": ("thermodrift.core.cli.report", "The published studies' tables (S1 Table 7, S2) from a sweep in MLflow."),
+    "export": ("thermodrift.core.cli.export", "Write a logged run's model as a data-only compensator package."),
+    "compensate": ("thermodrift.core.cli.compensate", "Stream a recording through a package into CNC values."),
 }
 
 
