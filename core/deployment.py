@@ -56,9 +56,14 @@ def axes(result) -> dict[str, dict[str, Any]]:
 def limits(result) -> dict[str, Any]:
     """The ``limits.json`` content of a job result (see the module docstring)."""
     X, y = training_frame(result)
+    return training_limits(X, y, axes(result))
+
+
+def training_limits(X: pd.DataFrame, y: pd.DataFrame, target_axes: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """``limits.json`` of training inputs ``X`` (indexed by time in s) and targets ``y`` (µm)."""
     out = limits_mod.training_limits(X.to_numpy(dtype=float), list(X.columns), y.to_numpy(dtype=float),
                                      list(y.columns), np.asarray(X.index, dtype=float))
-    out["axes"] = axes(result)
+    out["axes"] = target_axes
     return out
 
 
@@ -98,12 +103,19 @@ def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: floa
 
 
 def log(result) -> None:
-    """Log ``limits.json`` and ``fallbacks/`` into the active MLflow run (beside ``model``)."""
+    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``)."""
+    X, y = training_frame(result)
+    log_training(result.model, X, y, axes(result))
+
+
+def log_training(model, X: pd.DataFrame, y: pd.DataFrame, target_axes: dict[str, dict[str, Any]]) -> None:
+    """Log ``limits.json`` and ``fallbacks/`` for ``model`` refitted on ``X`` (inputs, time index in s, roles in
+    ``attrs["roles"]``) and ``y`` (µm) into the active MLflow run; ``thermodrift automl`` calls it for its
+    chosen pipeline."""
     import mlflow
 
-    lim = limits(result)
-    X, y = training_frame(result)
-    fb = fallbacks(result.model, X, y, lim["sampling_interval_s"])
+    lim = training_limits(X, y, target_axes)
+    fb = fallbacks(model, X, y, lim["sampling_interval_s"])
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / LIMITS
         path.write_text(json.dumps(lim, indent=1), encoding="utf-8")

@@ -92,3 +92,35 @@ def test_runtime_imports_no_training_stack(name, allowed, tmp_path, one_torch_th
     out = subprocess.run([sys.executable, "-c", ISOLATION, str(tmp_path)], capture_output=True, text=True,
                          check=True).stdout.split()
     assert {m.split(".")[0] for m in out} <= allowed, out
+
+
+def test_pipeline_and_ensemble_runtimes_follow_the_export_contract():
+    """A pipeline state (selected inputs → feature stage → inner model) and an ensemble of two stream as their
+    parts predict in batch."""
+    import pandas as pd
+
+    from thermodrift.compensator import runtime
+    from thermodrift.compensator.features import FeatureStage
+
+    rec = tiny_recording(seed=0)
+    targets = rec.columns("displacement")
+    inputs = rec.columns("temperature") + rec.columns("speed")
+    X, y = rec.data[inputs], rec.data[targets]
+    states, preds = [], []
+    for selected, taus in ((inputs, (600.0, 3600.0)), (inputs[:2] + rec.columns("speed"), (1200.0,))):
+        stage = FeatureStage.fit(X[selected].to_numpy(), selected, {c: rec.channels[c].role for c in selected},
+                                 X.index.to_numpy(), taus, (1.0, 2.0))
+        F = pd.DataFrame(stage.transform(X[selected].to_numpy()), columns=stage.names, index=X.index)
+        inner = registry.create("model", "mlr", alpha=1.0).fit(F.iloc[:CUT], y.iloc[:CUT])
+        states.append({"runtime": "pipeline", "inputs": inputs, "targets": targets, "history_length": None,
+                       "selected": selected, "features": stage.to_state(), "model": inner.export_state()})
+        preds.append(inner.predict(F))
+    ensemble = {"runtime": "ensemble", "inputs": inputs, "targets": targets, "history_length": None,
+                "weights": [0.25, 0.75], "members": states}
+    for state, expected in ((states[0], preds[0]), (states[1], preds[1]),
+                            (ensemble, 0.25 * preds[0] + 0.75 * preds[1])):
+        rt = runtime.build(state)
+        hist = X.to_numpy()[:CUT]
+        s = rt.streamer(hist, X.index.to_numpy()[:CUT])
+        got = np.array([s.update(v, t) for t, v in zip(X.index[CUT:], X.to_numpy()[CUT:])])
+        assert np.abs(got - expected[CUT:]).max() <= 1e-9

@@ -87,7 +87,8 @@ def test_an_empty_cell_is_a_fault_of_its_row_not_a_stop(exported):
     values = pd.read_csv(cwd / "h.csv")
     assert len(values) >= len(table) and values.loc[20, "disp_z_um_status"] == "fallback"
     lines = [json.loads(x) for x in (cwd / "a.jsonl").read_text().splitlines()]
-    assert {"sensor": "T_column", "reason": "missing"} in lines[20]["reasons"] and lines[20]["inputs"]["T_column"] is None
+    assert {"sensor": "T_column", "reason": "missing"} in lines[20]["reasons"]
+    assert lines[20]["inputs"]["T_column"] is None
 
 
 @pytest.mark.parametrize("change, needle", [
