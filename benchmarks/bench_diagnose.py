@@ -15,8 +15,9 @@ Prints the confusion matrix (hidden → top-1 finding), top-1 accuracy, false fi
 correct finds, on the final block no step saw), localisation (share of reported windows overlapping where the
 effect is over 20 % of its peak) and run time per case.
 
-``--generator fd`` takes the cases from the independent generator instead (``benchmarks/independent``: a
-distributed-parameter machine with the mechanisms planted in their own forms, sharing no code with the library):
+``--generator fd`` (or ``lumped``) takes the cases from an independent generator instead
+(``benchmarks/independent``: a distributed-parameter machine, or a lumped network of another topology per
+seed, with the mechanisms planted in their own forms, sharing no code with the library):
 the finder gets only the table and manifest (its ``auto`` baseline), and each row also keeps the verdict, the
 held-out drift RMSE cut on the drift channel where the planted effect is largest, and what the reports show
 about a miss (baseline misfit over probe noise, lag-1 autocorrelation of the baseline residual, the reason the
@@ -215,7 +216,7 @@ def fl_cases(data: Path, seed: int) -> list[dict]:
 
 
 def report(rows: list[dict], fl: list[dict], args) -> str:
-    fd = getattr(args, "generator", "library") == "fd"
+    fd = getattr(args, "generator", "library") != "library"
     acc_target, cut_target = ("≥ 85 %", "≥ 40 %") if fd else ("≥ 90 %", "≥ 50 %")
     hidden = [r for r in rows if r["hidden"] != "none"]
     nulls = [r for r in rows if r["hidden"] == "none"]
@@ -267,7 +268,8 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
     if fd:
         out += ["## Independent cases: what the reports show", "",
                 "| case | hidden | top-1 | cut (channel) | planted share | misfit / noise | held-out / fit | "
-                "residual lag-1 acf | why the hidden one was turned down |", "|---|---|---|---:|---:|---:|---:|---:|---|"]
+                "residual lag-1 acf | why the hidden one was turned down |",
+                "|---|---|---|---:|---:|---:|---:|---:|---|"]
         for r in rows:
             out.append(f"| {r['case']} | {r['hidden']} | {r['top1']} | {r['cut']:.0%} ({r['cut_channel']}) | "
                        f"{r['share']:.2f} | {r['misfit_over_noise']:.1f} | {r['heldout_over_fit']:.2f} | "
@@ -303,15 +305,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed-offset", type=int, default=0,
                     help="shift every case seed by this much: a fresh set of networks, programmes and nulls")
     ap.add_argument("--results", type=Path, help="JSON lines of finished cases: kept, and skipped on a re-run")
-    ap.add_argument("--generator", choices=["library", "fd"], default="library",
-                    help="library: the library's own networks; fd: the independent distributed-parameter generator")
+    ap.add_argument("--generator", choices=["library", "fd", "lumped"], default="library",
+                    help="library: the library's own networks; fd: the independent distributed-parameter "
+                         "generator; lumped: the independent lumped network (another topology per seed)")
     ap.add_argument("--sealed", action="store_true", help="with --generator fd: the sealed half (seeds ≥ 1000)")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--timing", action="store_true", help="with --generator fd: add two 30 h recordings at 15 s")
     args = ap.parse_args(argv)
-    if args.sealed and args.generator != "fd":
-        ap.error("--sealed needs --generator fd")
+    if (args.sealed or args.only or args.timing) and args.generator == "library":
+        ap.error("--sealed, --only and --timing need --generator fd or lumped")
     done = {}
     if args.results and args.results.is_file():
         for line in args.results.read_text(encoding="utf-8").splitlines():
@@ -323,7 +326,7 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     start = time.perf_counter()
     off = args.seed_offset
-    if args.generator == "fd":
+    if args.generator != "library":
         return main_independent(args, done, start)
     cases = [] if args.skip_synthetic else [*hidden_cases(per, dt, reg, off), *null_cases(nulls, dt, reg, off)]
     if args.full and not args.skip_synthetic:  # run time at the target's sampling: two 30 h recordings at 15 s
@@ -364,11 +367,11 @@ def main_independent(args, done: dict, start: float) -> int:
         specs = []
     with tempfile.TemporaryDirectory(prefix="bench-diagnose-fd-") as tmp:
         for seed, hidden, constant, dt in specs:
-            name = f"fd_{hidden or 'none'}_{seed}" + ("" if dt == 120.0 else f"_{dt:g}s")
+            name = f"{args.generator}_{hidden or 'none'}_{seed}" + ("" if dt == 120.0 else f"_{dt:g}s")
             if name in done:
                 rows.append(done[name])
                 continue
-            gen = independent.make_case(seed, hidden, dt_s=dt, constant_drivers=constant)
+            gen = independent.make_case(seed, hidden, dt_s=dt, constant_drivers=constant, generator=args.generator)
             gen.name = name
             r = run_independent(gen, args.seed, Path(tmp))
             rows.append(r)
@@ -382,8 +385,9 @@ def main_independent(args, done: dict, start: float) -> int:
         return 2
     fl = fl_cases(args.data, args.seed) if args.fl else []
     half = "sealed" if args.sealed else "development"
-    print(f"# diagnose benchmark, independent generator ({half} half, {'full' if args.full else 'default'}: "
-          f"step 120 s, {time.perf_counter() - start:.0f} s in all)\n")
+    size = "full" if args.full else "default"
+    print(f"# diagnose benchmark, independent generator {args.generator} ({half} half, {size}: step 120 s, "
+          f"{time.perf_counter() - start:.0f} s in all)\n")
     print(f"Amplitude rule: {independent.AMPLITUDE_RULE}.\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
     return 0

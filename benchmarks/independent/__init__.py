@@ -1,6 +1,7 @@
 """Concealed-effect recordings from generators that share no code with the library.
 
-:func:`make_case` draws a machine (:mod:`.fd_model`, a distributed-parameter conduction model), a programme,
+:func:`make_case` draws a machine (:mod:`.fd_model`: a distributed-parameter conduction model, or a lumped
+network of another topology per seed), a programme,
 a hall and sensors (:mod:`.programme`), plants one mechanism in its own form (:mod:`.planted`) and returns the
 recording as a table and a manifest in the public file format (``thermodrift diagnose TABLE --manifest YAML``
 reads them). Nothing here imports ``thermodrift``.
@@ -81,9 +82,17 @@ def _p2p(x: np.ndarray) -> float:
     return float(np.ptp(x)) if len(x) else 0.0
 
 
+GENERATORS = ("fd", "lumped")
+
+
 def make_case(seed: int, hidden: str | None, dt_s: float = 120.0, hours: float = 30.0,
-              constant_drivers: bool = False) -> Generated:
-    """The recording of ``seed`` with ``hidden`` planted (None: a null case); see the module docstring."""
+              constant_drivers: bool = False, generator: str = "fd") -> Generated:
+    """The recording of ``seed`` with ``hidden`` planted (None: a null case); see the module docstring.
+    ``generator``: ``fd`` the distributed-parameter machine (64–70 finite volumes), ``lumped`` a lumped
+    network of 14–15 nodes with a topology drawn per seed (:func:`fd_model.build`)."""
+    if generator not in GENERATORS:
+        raise ValueError(f"unknown generator {generator!r}; use one of {', '.join(GENERATORS)}")
+    lumped = generator == "lumped"
     if hidden is not None and hidden not in planted.EFFECTS:
         raise ValueError(f"unknown mechanism {hidden!r}; use one of {', '.join(HIDDEN)}")
     h = 15.0 if dt_s >= 15.0 else dt_s
@@ -102,8 +111,8 @@ def make_case(seed: int, hidden: str | None, dt_s: float = 120.0, hours: float =
     chiller0 = Chiller.draw(r_chill, steady=hidden != "coolant_coupling")
     base_parts = [planted.Jacket(np.random.default_rng([seed, 5]))] if steady_coolant else []
     effect = planted.EFFECTS[hidden](r_effect) if hidden else None
-    machine = fd_model.build(r_machine, block=bool(effect and effect.block))
-    plain = fd_model.build(np.random.default_rng(np.random.SeedSequence([seed, 23]).spawn(8)[0]))
+    machine = fd_model.build(r_machine, block=bool(effect and effect.block), lumped=lumped)
+    plain = fd_model.build(np.random.default_rng(np.random.SeedSequence([seed, 23]).spawn(8)[0]), lumped=lumped)
     cooled = hidden == "coolant_coupling" or steady_coolant
 
     def run(m, parts, air):
@@ -133,7 +142,7 @@ def make_case(seed: int, hidden: str | None, dt_s: float = 120.0, hours: float =
                                       probe_noise, effect if hidden == "sensor_lag" else None, cooled,
                                       hidden == "cutting_heat" or constant_drivers,
                                       hidden == "axis_drive_heat" or constant_drivers, seed, hidden)
-    name = f"fd:{hidden or 'none'}:{seed}"
+    name = f"{generator}:{hidden or 'none'}:{seed}"
     info.update(target_share=target, untouched_z_p2p_um=ref, probe_noise_um=probe_noise, steady_coolant=steady_coolant)
     share = max(effect_um.values()) / ref if effect_um and ref > 0 else 0.0
     return Generated(name.replace(":", "_"), seed, hidden, table, manifest,
@@ -191,5 +200,5 @@ def _readings(m, res, prog, air, every, rng, has_x, probe_noise, pads, cooled, l
     manifest = {"description": f"independent distributed-parameter generator, seed {seed}, "
                                f"{'hidden ' + hidden if hidden else 'null'}",
                 "time": "time_s", "channels": channels}
-    info = {"sensors": chosen, "padded": sorted(padded), "nodes": m.size}
+    info = {"sensors": chosen, "padded": sorted(padded), "nodes": m.size, "extra_links": m.info.get("extra_links")}
     return pd.DataFrame(cols), manifest, info

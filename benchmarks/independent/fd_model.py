@@ -98,10 +98,17 @@ class Machine:
         return self.segments[name]
 
 
-def build(rng: np.random.Generator, block: bool = False) -> Machine:
-    """Draw a vertical machining centre (sizes, joints, sources, exposure); ``block`` adds a 6-volume
-    headstock block joined to the housing clamp and the column front (drawn whether or not it is used, so
-    the rest of the machine is the same)."""
+FINE = {"shaft": 14, "housing": 12, "column": 10, "bed": 10, "screw": 8, "block": 6}
+LUMPED = {"shaft": 3, "housing": 3, "column": 2, "bed": 2, "screw": 2, "block": 1}
+
+
+def build(rng: np.random.Generator, block: bool = False, lumped: bool = False) -> Machine:
+    """Draw a vertical machining centre (sizes, joints, sources, exposure); ``block`` adds a headstock block
+    joined to the housing clamp and the column front (drawn whether or not it is used, so the rest of the
+    machine is the same). ``lumped``: the other model class, a lumped network of 14–15 nodes (most of them
+    unmeasured, in the heat paths and in the drift) whose topology changes per seed: 1–3 extra links drawn
+    from hoses, cable chain and guards, and each part's expansion weight × U(0.5, 1.5)."""
+    cells = LUMPED if lumped else FINE
     r_s, L_s = rng.uniform(0.03, 0.05), rng.uniform(0.45, 0.6)
     nose = rng.uniform(0.08, 0.12)
     r_o = rng.uniform(0.09, 0.13)
@@ -113,18 +120,24 @@ def build(rng: np.random.Generator, block: bool = False) -> Machine:
     blk = dict(area=rng.uniform(0.04, 0.08), length=rng.uniform(0.3, 0.5), h=rng.uniform(3.0, 6.0),
                g_clamp=rng.uniform(4.0, 12.0), g_col=rng.uniform(0.5, 2.0))
     segs = {
-        "shaft": Segment("shaft", 14, L_s / 14, np.pi * r_s ** 2, STEEL, np.zeros(14)),
-        "housing": Segment("housing", 12, (L_s - nose) / 12, np.pi * (r_o ** 2 - (r_s + 0.03) ** 2), CAST_IRON,
-                           np.full(12, 2 * np.pi * r_o * h_head / h_struct)),
-        "column_front": Segment("column_front", 10, H / 10, a_face, CAST_IRON, np.full(10, 0.6)),
-        "column_back": Segment("column_back", 10, H / 10, a_face, CAST_IRON, np.full(10, 0.6)),
-        "bed": Segment("bed", 10, L_b / 10, a_bed, CAST_IRON, np.full(10, 0.9)),
-        "screw": Segment("screw", 8, L_sc / 8, np.pi * r_sc ** 2, STEEL, np.full(8, 2 * np.pi * r_sc * 1.5)),
+        "shaft": Segment("shaft", cells["shaft"], L_s / cells["shaft"], np.pi * r_s ** 2, STEEL,
+                         np.zeros(cells["shaft"])),
+        "housing": Segment("housing", cells["housing"], (L_s - nose) / cells["housing"],
+                           np.pi * (r_o ** 2 - (r_s + 0.03) ** 2), CAST_IRON,
+                           np.full(cells["housing"], 2 * np.pi * r_o * h_head / h_struct)),
+        "column_front": Segment("column_front", cells["column"], H / cells["column"], a_face, CAST_IRON,
+                                np.full(cells["column"], 0.6)),
+        "column_back": Segment("column_back", cells["column"], H / cells["column"], a_face, CAST_IRON,
+                               np.full(cells["column"], 0.6)),
+        "bed": Segment("bed", cells["bed"], L_b / cells["bed"], a_bed, CAST_IRON, np.full(cells["bed"], 0.9)),
+        "screw": Segment("screw", cells["screw"], L_sc / cells["screw"], np.pi * r_sc ** 2, STEEL,
+                         np.full(cells["screw"], 2 * np.pi * r_sc * 1.5)),
     }
     shaft = segs["shaft"]
-    shaft.perimeter = np.where(shaft.x < nose, 2 * np.pi * r_s * 1.5, 0.0)   # only the nose sees the air
+    shaft.perimeter = np.where(shaft.x < max(nose, shaft.x[0] + 1e-9), 2 * np.pi * r_s * 1.5, 0.0)  # the nose
     if block:
-        segs["block"] = Segment("block", 6, blk["length"] / 6, blk["area"], CAST_IRON, np.full(6, 0.5))
+        segs["block"] = Segment("block", cells["block"], blk["length"] / cells["block"], blk["area"], CAST_IRON,
+                                np.full(cells["block"], 0.5))
     start = 0
     for s in segs.values():
         s.start = start
@@ -154,6 +167,8 @@ def build(rng: np.random.Generator, block: bool = False) -> Machine:
     join(fb, x_h(x_fb), rng.uniform(3.0, 10.0))
     join(rb, x_h(x_rb), rng.uniform(2.0, 6.0))
     in_motor = (shaft.x >= motor[0]) & (shaft.x <= motor[1])
+    if not in_motor.any():
+        in_motor = np.abs(shaft.x - 0.5 * (motor[0] + motor[1])) == np.abs(shaft.x - 0.5 * sum(motor)).min()
     gap = rng.uniform(1.5, 4.0)
     for i in shaft.idx[in_motor]:
         join(int(i), x_h(shaft.x[i - shaft.start]), gap / in_motor.sum())
@@ -192,17 +207,34 @@ def build(rng: np.random.Generator, block: bool = False) -> Machine:
     stator = np.unique([x_h(x) for x in shaft.x[in_motor]])
     q_top["stator"][stator] = q_m * (1 - rotor) / len(stator)
     w_z, w_x = np.zeros(n), np.zeros(n)
-    w_z[shaft.idx[shaft.x < x_fb]] = STEEL["alpha"] * shaft.dx * 1e6            # nose grows towards the table
+    nose_idx = shaft.idx[shaft.x < max(x_fb, shaft.x[0] + 1e-9)]
+    w_z[nose_idx] = STEEL["alpha"] * x_fb / len(nose_idx) * 1e6                 # nose grows towards the table
     between = hs.idx[(hs.x + nose >= x_fb) & (hs.x + nose <= x_clamp)]
-    w_z[between] = CAST_IRON["alpha"] * hs.dx * 1e6                            # housing below the clamp
+    if len(between) == 0:
+        between = np.array([x_h(0.5 * (x_fb + x_clamp))])
+    w_z[between] = CAST_IRON["alpha"] * (x_clamp - x_fb) / len(between) * 1e6  # housing below the clamp
     for face in (cf, cb):
         w_z[face.idx[: j_head - cf.start + 1]] -= 0.5 * CAST_IRON["alpha"] * face.dx * 1e6  # column lifts head
     w_z[table] += CAST_IRON["alpha"] * 0.3 / len(table) * 1e6                  # bed under the table rises
     s_ref = rng.uniform(0.3, 0.7) * L_sc
-    w_x[sc.idx[sc.x < s_ref]] = STEEL["alpha"] * sc.dx * 1e6                   # semi-closed-loop screw
+    on_ref = sc.idx[sc.x < max(s_ref, sc.x[0] + 1e-9)]
+    w_x[on_ref] = STEEL["alpha"] * s_ref / len(on_ref) * 1e6                   # semi-closed-loop screw
+    extra = {}
+    if lumped:  # another topology per seed: extra heat paths, and the parts' expansion factors
+        links = [("housing_bed", x_h(x_rb), bed.idx[-1]), ("stator_column", int(stator[0]), cb.idx[-1]),
+                 ("screw_housing", sc.idx[-1], x_h(x_rb)), ("nose_bed", int(nose_idx[0]), int(table[0]))]
+        for k in rng.choice(len(links), size=int(rng.integers(1, 4)), replace=False):
+            name, i, j = links[int(k)]
+            g = float(rng.uniform(0.2, 1.5))
+            join(int(i), int(j), g)
+            extra[name] = g
+        for part in segs.values():
+            f = rng.uniform(0.5, 1.5)
+            w_z[part.idx] *= f
+            w_x[part.idx] *= f
     info = dict(front_bearing=fb, rear_bearing=rb, housing_fb=x_h(x_fb), housing_rb=x_h(x_rb),
                 motor_housing=int(stator[len(stator) // 2]), rotor=shaft.idx[in_motor], stator=stator,
-                nose=shaft.idx[shaft.x < x_fb], j_head=j_head, y_head=y_head, w_col=w_col, table=table,
+                nose=nose_idx, extra_links=extra, j_head=j_head, y_head=y_head, w_col=w_col, table=table,
                 col_at=col_at, clamp=x_h(x_clamp), r_s=r_s, jacket=stator, H=H)
     return Machine(segs, C, K, g_air, g_floor, q_top, p, {"z": w_z, "x": w_x}, info)
 

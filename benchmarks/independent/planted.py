@@ -141,8 +141,8 @@ class RotatingConvection(Effect):
 
 class BearingLaw(Effect):
     """The bearings follow (n/n_max)^p_b (p_b = p ± 0.5–0.8) times ν(T)^(2/3)/ν₀^(2/3) with
-    ν = ν₀ exp(−β(T_bearing − T_start)), β 0.02–0.04 /K, instead of the motor's (n/n_max)^p; heat at top speed
-    and start temperature unchanged. ``scale`` (≤ 1) mixes the new law into the old."""
+    ν = ν₀ exp(−β(T_bearing − T_start)), β 0.02–0.04 /K, instead of the motor's (n/n_max)^p; heat at top
+    speed and start temperature unchanged. ``scale`` (≤ 1) mixes the new law into the old."""
 
     def __init__(self, rng):
         self.shift = rng.uniform(0.5, 0.8) * rng.choice([-1.0, 1.0])
