@@ -131,3 +131,12 @@ def test_planted_mechanism_changes_the_machine_only_through_its_effect():
     assert np.allclose(res.T, base.T)
     growth = res.drift["z"] - base.drift["z"]
     assert abs(growth[-1]) == pytest.approx((9000.0 / 10000.0) ** 2, rel=1e-3)  # c = ±1 µm at n_max, settled
+
+
+def test_lumped_generator_draws_another_topology_per_seed():
+    tops = []
+    for seed in range(6):
+        m = fd_model.build(np.random.default_rng(seed), lumped=True)
+        assert 10 <= m.size < 20 and np.allclose(m.K, m.K.T)
+        tops.append(frozenset(m.info["extra_links"]))
+    assert len(set(tops)) >= 3
