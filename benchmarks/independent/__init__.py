@@ -12,7 +12,8 @@ disjoint by construction, and the sealed half is only run with ``--sealed``.
 AMPLITUDE_RULE: per case a share s ~ U(0.2, 0.4) is drawn; the planted effect's peak-to-peak on the logged
 drift channels (truth minus the same machine, programme and hall without it; the largest over channels) is
 brought to s × the peak-to-peak of the untouched z drift, and at least 10 × the probe noise, by rescaling its
-amplitude (up to 4 simulations). ``sensor_lag`` changes readings only: its size is the pad time constant.
+amplitude (up to 4 simulations; ``bearing_heat_law`` stops at λ = 2 and may stay under its share).
+``sensor_lag`` changes readings only: its size is the pad time constant.
 """
 
 from __future__ import annotations
@@ -132,11 +133,11 @@ def make_case(seed: int, hidden: str | None, dt_s: float = 120.0, hours: float =
             got = max(effect_um.values())
             if got <= 0 or abs(got / goal - 1) < 0.15 or it == 3:
                 break
-            if hidden == "bearing_heat_law" and effect.scale >= 1.0 and got < goal:
-                break  # the full law is the largest this mechanism gets
+            if hidden == "bearing_heat_law" and effect.scale >= 2.0 and got < goal:
+                break  # λ = 2 is the largest this mechanism gets
             effect.scale *= float(np.clip(goal / got, 0.2, 5.0))
             if hidden == "bearing_heat_law":
-                effect.scale = min(effect.scale, 1.0)
+                effect.scale = min(effect.scale, 2.0)
     air_true = quiet + min(effect.scale, 1.0) * (lively - quiet) if hidden == "ambient_coupling" else quiet
     table, manifest, info = _readings(machine if effect else plain, truth, prog, air_true, every, r_sens, has_x,
                                       probe_noise, effect if hidden == "sensor_lag" else None, cooled,

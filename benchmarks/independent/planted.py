@@ -142,7 +142,8 @@ class RotatingConvection(Effect):
 class BearingLaw(Effect):
     """The bearings follow (n/n_max)^p_b (p_b = p ± 0.5–0.8) times ν(T)^(2/3)/ν₀^(2/3) with
     ν = ν₀ exp(−β(T_bearing − T_start)), β 0.02–0.04 /K, instead of the motor's (n/n_max)^p; heat at top
-    speed and start temperature unchanged. ``scale`` (≤ 1) mixes the new law into the old."""
+    speed and start temperature unchanged. ``scale`` λ ≤ 2: heat = old + λ·(new − old), kept ≥ 0 (λ > 1
+    carries the law's difference further)."""
 
     def __init__(self, rng):
         self.shift = rng.uniform(0.5, 0.8) * rng.choice([-1.0, 1.0])
@@ -167,8 +168,9 @@ class BearingLaw(Effect):
             top = m.q_top[key]
             nodes = np.flatnonzero(top)
             visc = np.exp(-self.beta * (T[nodes].mean() - self.t0[nodes].mean())) ** (2 / 3)
-            q[nodes] = top[nodes] * (r ** self.pb * visc - r ** m.p)
-        return q * min(self.scale, 1.0)
+            lam = min(self.scale, 2.0)
+            q[nodes] = top[nodes] * max(lam * (r ** self.pb * visc - r ** m.p), -r ** m.p)  # heat stays ≥ 0
+        return q
 
 
 class Preload(Effect):
