@@ -312,7 +312,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--timing", action="store_true", help="with --generator fd: add two 30 h recordings at 15 s")
+    ap.add_argument("--pool", nargs="+", type=Path, metavar="ROWS",
+                    help="run nothing: one report over the finished cases of these --results files (generators pooled)")
     args = ap.parse_args(argv)
+    if args.pool:
+        rows = [json.loads(line) for f in args.pool for line in f.read_text(encoding="utf-8").splitlines() if line]
+        args.generator = "pooled"
+        print(f"# diagnose benchmark, pooled over {', '.join(str(f) for f in args.pool)}\n")
+        print(report(rows, [], args))
+        return 0
     if (args.sealed or args.only or args.timing) and args.generator == "library":
         ap.error("--sealed, --only and --timing need --generator fd or lumped")
     done = {}
