@@ -235,6 +235,13 @@ def resolve_device(device: str) -> torch.device:
     return torch.device(device)
 
 
+def set_num_threads(threads: int) -> None:
+    """Set torch's CPU threads for this process (1 is fastest for small thermal networks)."""
+    import torch
+
+    torch.set_num_threads(threads)
+
+
 @contextmanager
 def seeded(seed: int, device: torch.device | None = None) -> Iterator[None]:
     """Seed torch (CPU and ``device``) and numpy's global generator; restore the previous states on exit."""

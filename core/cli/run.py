@@ -202,36 +202,14 @@ def _bad_input(exc: Exception, multirun: bool) -> None:
     return None
 
 
-# Hydra's options that take a value (`--cfg job`, `-cn name`, ...).
-_VALUED = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn", "--config-dir", "-cd",
-           "--experimental-rerun", "--info", "-i", "--shell-completion", "-sc"}
-
-
-def _split_flags(args: list[str]) -> tuple[list[str], list[str]]:
-    """Hydra's options (with their values) and the overrides. Hydra's argparse reads options only before the
-    overrides; users type them anywhere (`thermodrift run model=bp -m`), so they are moved first."""
-    flags, rest, i = [], [], 0
-    while i < len(args):
-        arg = args[i]
-        if arg.startswith("-"):
-            flags.append(arg)
-            if arg in _VALUED and i + 1 < len(args) and not args[i + 1].startswith("-") and "=" not in args[i + 1]:
-                flags.append(args[i + 1])
-                i += 1
-        else:
-            rest.append(arg)
-        i += 1
-    return flags, rest
-
-
 def main(overrides: list[str]) -> int:
     """Run the Hydra app with command-line ``overrides`` (``-m`` for a multirun grid)."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
     reg = registry.default()
-    flags, rest = _split_flags(overrides)
-    run_options.check_overrides(rest, reg)  # a typo gets one line with the closest right name, before Hydra
+    flags, rest = run_options.split_flags(overrides)
+    run_options.check_overrides(rest, reg)  # with the plugins loaded: a component's parameter names too
     for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
         register()
     for plugin, error in reg.failures.items():  # `thermodrift plugins` lists them too

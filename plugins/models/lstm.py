@@ -83,6 +83,16 @@ class LSTM(TorchThermalModel):
 
         return _Net(int(self.hidden_units))
 
+    def export_state(self) -> dict:
+        """Runtime ``sequence`` (architecture ``lstm``): the weights as torch tensors and the scalers."""
+        return {"runtime": "sequence", "architecture": "lstm", "inputs": [str(c) for c in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": self.history_length,
+                "window": int(self.window), "hidden_units": int(self.hidden_units),
+                "n_inputs": len(self.x_scaler_.mean), "n_outputs": len(self.y_scaler_.mean),
+                "weights": dict(self.state_dict_), "x_mean": np.asarray(self.x_scaler_.mean),
+                "x_scale": np.asarray(self.x_scaler_.scale), "y_mean": np.asarray(self.y_scaler_.mean),
+                "y_scale": np.asarray(self.y_scaler_.scale)}
+
 
 @hookimpl
 def thermodrift_register_models(registry):
