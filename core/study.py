@@ -37,9 +37,10 @@ from thermodrift.core import efficiency, registry, resume, schema, search_space,
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
+from thermodrift.core.recording import TEMPERATURE_ROLES
 
 SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
-INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+INPUT_ROLES = TEMPERATURE_ROLES  # the channels a model may read: every temperature (°C)
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
 
 

@@ -59,6 +59,15 @@ def test_plugins_use_only_public_names_of_core_and_of_each_other():
     assert bad == []
 
 
+@pytest.mark.parametrize("package", ["thermodrift.core.physics.calibration", "thermodrift.core.physics.diagnose",
+                                     "thermodrift.core.recording"])
+def test_plugins_use_packages_with_a_public_api_through_the_package(package):
+    """Their ``__all__`` is the public door; their modules are internal."""
+    bad = [f"{p.relative_to(REPO)} imports {m}" for p in _modules("plugins") for m, _ in _imports(p)
+           if m.startswith(package + ".")]
+    assert bad == []
+
+
 def test_plugins_write_no_private_attribute_of_an_object_they_do_not_own():
     bad = []
     for path in _modules("plugins"):

@@ -64,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     module = importlib.import_module(VERBS[argv[0]][0])
     module.configure(sub.choices[argv[0]])
     args = parser.parse_args(argv)
+    if getattr(args, "no_progress", True) is False and not sys.stderr.isatty():
+        args.no_progress = True  # a bar redrawn in a file or a pipe becomes one long line
     return _guard(lambda: module.run(args))
 
 
