@@ -103,7 +103,15 @@ def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: floa
 
 
 def log(result) -> None:
-    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``)."""
+    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``).
+    A model that reads more than recorded channels (the persistence reference reads the previous measured
+    displacement) gets neither: no controller can feed it."""
+    import mlflow
+
+    missing = [str(c) for c in result.model.feature_names_in_ if c not in result.recording.data.columns]
+    if missing:
+        mlflow.set_tag("compensator", f"not exportable: inputs {', '.join(missing)[:200]} are not recorded channels")
+        return
     X, y = training_frame(result)
     log_training(result.model, X, y, axes(result))
 
