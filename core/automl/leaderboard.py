@@ -26,7 +26,6 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
     rows = []
     for e in entries:
         p = e.candidate.params
-        feats = p.get("features")
         row = {"trial": e.number, "model": p["model"],
                "selector": space.describe(p).split(" · ")[1], "features": space.describe(p).split(" · ")[2],
                "rung": e.candidate.rung, "phase": e.phase, "status": "ok" if e.evaluation is not None else "failed",
@@ -42,7 +41,6 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
                     "latency_stream_ms": costs.get("latency_stream_ms", np.nan),
                     "n_parameters": costs.get("n_parameters", np.nan),
                     "params": json.dumps(p, sort_keys=True, default=str), "error": e.error})
-        del feats
         rows.append(row)
     if ensemble is not None:
         row = {"trial": -1, "model": "ensemble", "selector": "", "features": "",

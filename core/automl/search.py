@@ -26,6 +26,7 @@ from thermodrift.core.automl.ensemble import caruana
 from thermodrift.core.automl.evaluate import Evaluation, Evaluator
 
 PHASE_ATTR = "automl.phase"
+PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is within this factor of the best
 
 
 @dataclass
@@ -39,7 +40,7 @@ class Settings:
     timeout_s: float | None = None
     max_folds: int = 3
     tpe_families: int = 4
-    top_rung: int = 2
+    top_rung: int = 3
     ensemble_pool: int = 10
     ensemble_steps: int = 25
     families: list[str] | None = None
@@ -165,7 +166,7 @@ class Search:
                     keep = at[:max(1, len(at) // space.RUNG_EPOCH_FACTOR)] if at else []
                     # a network far behind the best pipeline is not worth more epochs
                     for e in keep:
-                        if e.score <= 2.0 * overall:
+                        if e.score <= PROMOTE_WITHIN * overall:
                             out.append((space.Candidate(e.candidate.params, rung, "promoted",
                                                         f"rung {rung} of #{e.number}"), f"rung{rung}"))
                 return out
@@ -175,7 +176,9 @@ class Search:
 
     # ------------------------------------------------------------------------------------------------ trials
     def _trial(self, sample: Callable[[optuna.Trial], space.Candidate] | None = None) -> None:
-        trial = self.study.ask()
+        with warnings.catch_warnings():  # ask/tell: the trials' owner attribute marks a killed run's trials
+            warnings.simplefilter("ignore", UserWarning)
+            trial = self.study.ask()
         resume.claim(trial)
         text = trial.user_attrs.get("candidate")
         cand = space.Candidate.from_json(text) if text else sample(trial)

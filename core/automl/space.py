@@ -35,6 +35,8 @@ FEATURE_SPACE = {"tau_min_s": {"type": "float", "low": 120.0, "high": 3600.0, "l
                  "n_taus": {"type": "int", "low": 1, "high": 5},
                  "max_power": {"type": "int", "low": 1, "high": 3}}
 DEFAULT_FEATURES = {"taus_s": [600.0, 2400.0, 9600.0], "powers": [1.0, 2.0]}
+# Settings of a family on features in the portfolio (many collinear filtered columns need a ridge penalty).
+FEATURE_PARAMS = {"mlr": {"alpha": 1.0}}
 RUNG_EPOCH_FACTOR = 3  # successive halving: each rung trains a network 3× longer and keeps a third
 
 
@@ -80,6 +82,8 @@ class Candidate:
 def families(reg: registry.Registry | None = None, only: list[str] | None = None) -> list[Family]:
     """Every registered model that takes part (or those named in ``only``), in name order."""
     reg = reg or registry.default()
+    for name in only or []:
+        reg.get("model", name)  # an unknown name: one line with the known ones
     out = []
     for name in reg.names("model"):
         cls = reg.get("model", name).factory
@@ -144,20 +148,22 @@ def suggest(trial: optuna.Trial, fams: list[Family], sels: dict[str, dict]) -> C
 
 def portfolio(fams: list[Family], sels: dict[str, dict]) -> list[Candidate]:
     """Known-good configurations first, cheapest first: every family untuned on all sensors; every family that
-    takes features, untuned on the default filtered features; the cheap linear read-outs on filtered features
-    of the correlation-selected sensors. Networks enter at the lowest fidelity (rung 0)."""
+    takes features (networks aside), on the default filtered features; the cheap read-outs on filtered
+    features of the correlation-selected sensors. Networks enter at the lowest fidelity (rung 0)."""
     order = {c: i for i, c in enumerate(COSTS)}
     ranked = sorted(fams, key=lambda f: (order[f.cost], f.name))
     out = []
     for f in ranked:
         out.append(Candidate(_base(f.name), origin="portfolio", label="untuned, all sensors"))
-        if f.takes_features:
-            out.append(Candidate({**_base(f.name), "features": dict(DEFAULT_FEATURES)}, origin="portfolio",
-                                 label="untuned, filtered features"))
+        if f.takes_features and not f.network:  # networks get features through TPE, if they make its short list
+            out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
+                                  "features": dict(DEFAULT_FEATURES)}, origin="portfolio",
+                                 label="filtered features"))
     if "correlation_top_k" in sels:
         for f in ranked:
             if f.takes_features and f.cost == "cheap":
-                out.append(Candidate({**_base(f.name), "selector": "correlation_top_k",
+                out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
+                                      "selector": "correlation_top_k",
                                       "selector_params": {"k": 6}, "features": dict(DEFAULT_FEATURES)},
                                      origin="portfolio", label="untuned, 6 sensors, filtered features"))
     return out
