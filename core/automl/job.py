@@ -132,9 +132,9 @@ def _selected(model) -> list[str]:
 
 
 def _study(spec: JobSpec, name: str) -> optuna.Study:
-    sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=8, multivariate=True, group=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=8, multivariate=True, group=True)
         storage = Job.storage(spec.storage) if spec.storage else None
         return schema.retrying(lambda: optuna.create_study(study_name=name, storage=storage, sampler=sampler,
                                                            direction="minimize", load_if_exists=True), spec.storage)

@@ -188,7 +188,7 @@ class Search:
         family = self.families.get(cand.family)
         if family is None or cand.family in self.failed_families:
             trial.set_user_attr("fits", 0)
-            trial.set_user_attr("error", "skipped: its family failed before" if family else "unknown family")
+            trial.set_user_attr("skipped", "its family failed before" if family else "unknown family")
             self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
             return
         params = space.at_rung(cand, cand.rung, family, self.settings.top_rung)
@@ -227,7 +227,7 @@ class Search:
         """Every finished candidate trial, failed ones included, in trial order."""
         out = []
         for t in self.study.trials:
-            if not t.state.is_finished() or "candidate" not in t.user_attrs:
+            if not t.state.is_finished() or "candidate" not in t.user_attrs or "skipped" in t.user_attrs:
                 continue
             cand = space.Candidate.from_json(t.user_attrs["candidate"])
             ev = None
