@@ -58,7 +58,8 @@ def parent_run(client, ref: str, experiment_ids: list[str] | None = None):
 
 
 def collect(client, parent_id: str) -> pd.DataFrame:
-    """One row per (job run, fold, source) under ``parent_id`` with the job's tags and the fold's metrics."""
+    """One row per (job run, fold, source) under ``parent_id`` with the job's tags and the fold's metrics; a
+    baseline evaluated identically by several jobs has one row (that of the first job by run id)."""
     parent = client.get_run(parent_id)
     children = client.search_runs([parent.info.experiment_id], f"tags.mlflow.parentRunId = '{parent_id}'")
     rows = []
@@ -91,8 +92,13 @@ def collect(client, parent_id: str) -> pd.DataFrame:
     if table.empty:
         raise InputError(f"run {parent_id} has no finished job runs with per-fold metrics",
                          hint="run a grid with `thermodrift run -m ...` first")
-    return table.sort_values(["protocol", "split", "run_id", "fold", "tuned", "source"],
-                             ascending=[True, True, True, True, False, True], ignore_index=True)
+    table = table.sort_values(["protocol", "split", "run_id", "fold", "tuned", "source"],
+                              ascending=[True, True, True, True, False, True], ignore_index=True)
+    # Every job refits the baselines on its own rows: jobs that differ only in the model or optimizer evaluate
+    # the same baseline on the same rows (same recording, selection, split and fold, equal metrics). That is
+    # one evaluation, so it keeps one row and no table lists it once per job.
+    same = ["dataset", "selector", "ablation", "protocol", "split", "fold", "selected_sensors", "source", *METRICS]
+    return table[table["tuned"] | ~table.duplicated(same)].reset_index(drop=True)
 
 
 def s1_table(rows: pd.DataFrame) -> pd.DataFrame:

@@ -10,6 +10,9 @@ predictions equal a baseline's. Metric names: ``test/<metric>`` (mean over displ
 explained variance, VAF (%), relative error (%) and compensation rate.
 Efficiency metrics per job: ``efficiency/train_s``, ``efficiency/latency_batch_ms``, ``efficiency/latency_stream_ms``
 (ms per sample) and ``efficiency/n_parameters``.
+
+The physics verbs log here too (:func:`log_calibration`, :func:`log_diagnosis`): physics computes and returns
+its results and never imports this module.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from hydra.experimental.callback import Callback
 from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 
-from thermodrift.core import artifacts
+from thermodrift.core import artifacts, deployment
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
@@ -178,6 +181,8 @@ def log_result(result, params: dict[str, Any]) -> None:
                 mlflow.log_artifact(str(path), artifact_path=where)
     # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
     artifacts.log_model(result.model, result.spec.model)
+    if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
+        deployment.log(result)
 
 
 def _log_dataset(result) -> None:
@@ -357,3 +362,49 @@ def flatten(d: dict, prefix: str = "") -> dict[str, Any]:
 
 def _short(v: Any) -> str:
     return str(v)[:500]
+
+
+# --- the physics verbs: physics computes and returns, the verbs log here -------------------------------------------
+
+def log_calibration(result, mm, out_dir: str | Path, tracking_uri: str | None, run_name: str = "calibrate",
+                    experiment: str = "calibrate") -> str:
+    """Log a calibration (``CalibrationResult``), its mismatch map (``MismatchMap``: top windows as tags and
+    shares), RMSEs (K, µm) and objective, and every file in ``out_dir`` to an MLflow run; returns the run id."""
+    setup(tracking_uri, experiment)
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
+        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
+                           "confidence_level": result.level, "stopped": result.stopped[:250]})
+        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
+                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
+        for c in result.rmse:
+            metrics[metric_key("rmse", c)] = result.rmse[c]
+            metrics[metric_key("rmse_initial", c)] = result.rmse_initial[c]
+        top = mm.by_window().head(5)
+        for rank, (name, row) in enumerate(top.iterrows(), start=1):
+            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
+            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out_dir))
+        return run.info.run_id
+
+
+def log_diagnosis(d, doc: dict[str, Any], out: str | Path, tracking_uri: str | None, run_name: str,
+                  seed: int) -> str:
+    """Log a diagnosis (``Diagnosis`` and its ``report.json`` document ``doc``): RMSEs (µm), findings with their
+    confidence, and every file in ``out`` to an MLflow run; returns the run id."""
+    setup(tracking_uri, "diagnose")
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"kind": "diagnosis", "network": d.baseline_network.name,
+                         "findings": ",".join(f["mechanism"] for f in d.findings) or "none"})
+        mlflow.log_params({"seed": seed, "screened": d.screened, "network": d.baseline_network.name})
+        metrics = {"seconds": d.seconds, "findings": float(len(d.findings))}
+        for part in ("baseline", "augmented"):
+            for key in ("rmse_um", "heldout_rmse_um"):
+                for c, v in doc[part][key].items():
+                    metrics[metric_key(f"{part}_{key}", c)] = v
+        for f in d.findings:
+            metrics[f"confidence/{f['mechanism']}"] = f["confidence"]
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out))
+        return run.info.run_id

@@ -235,6 +235,13 @@ def resolve_device(device: str) -> torch.device:
     return torch.device(device)
 
 
+def set_num_threads(threads: int) -> None:
+    """Set torch's CPU threads for this process (1 is fastest for small thermal networks)."""
+    import torch
+
+    torch.set_num_threads(threads)
+
+
 @contextmanager
 def seeded(seed: int, device: torch.device | None = None) -> Iterator[None]:
     """Seed torch (CPU and ``device``) and numpy's global generator; restore the previous states on exit."""
@@ -312,6 +319,15 @@ def _step(params: list[nn.Parameter], optimizer: torch.optim.Optimizer, loss: to
 
 
 # ---------------------------------------------------------------------------------------------------- training
+def training_rows(n_samples: int, config: TrainerSettings) -> int:
+    """How many of ``n_samples`` time-ordered samples :func:`train` fits on; the rest, the last
+    ``validation_fraction`` of them (at least one when the fraction is above 0), is the validation tail."""
+    n_val = max(1, round(config.validation_fraction * n_samples)) if config.validation_fraction > 0 else 0
+    if n_samples - n_val < 1:
+        raise ValueError(f"{n_samples} samples are too few for validation_fraction={config.validation_fraction}")
+    return n_samples - n_val
+
+
 def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: TrainerSettings, *,
           random_state: int = 0) -> TrainResult:
     """Train the module that ``build()`` returns on inputs ``X`` (n, ..., features) and targets ``y`` (n, k) µm,
@@ -327,10 +343,8 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
     X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float).reshape(len(X), -1)
     if not (np.isfinite(X).all() and np.isfinite(y).all()):
         raise ValueError("training data contain NaN or infinite values")
-    n_val = max(1, round(config.validation_fraction * len(X))) if config.validation_fraction > 0 else 0
-    n_train = len(X) - n_val
-    if n_train < 1:
-        raise ValueError(f"{len(X)} samples are too few for validation_fraction={config.validation_fraction}")
+    n_train = training_rows(len(X), config)
+    n_val = len(X) - n_train
     x_scaler, y_scaler = Standardizer.fit(X[:n_train]), Standardizer.fit(y[:n_train])
     device = resolve_device(config.device)
 

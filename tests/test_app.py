@@ -3,7 +3,8 @@
 import pytest
 from hydra import compose, initialize_config_module
 
-from thermodrift.core.cli.run import _split_flags, spec_from_config
+from thermodrift.core.cli.run import spec_from_config
+from thermodrift.core.cli.run_options import split_flags
 
 
 @pytest.fixture()
@@ -31,7 +32,7 @@ def test_experiment_preset_overrides_top_level_keys(cfg_for):
 
 
 def test_hydra_options_are_accepted_anywhere():
-    flags, rest = _split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
+    flags, rest = split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
     assert flags == ["-m", "--cfg", "job", "-cn", "other"]
     assert rest == ["model=bp", "seed=1", "x=1"]
 

@@ -39,7 +39,6 @@ from scipy import stats
 
 from thermodrift.core.physics.calibration import FreeParameter, calibrate
 from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, Screen, _place_text, baseline_of, restricted
-from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
 
 EQUIVALENT = 0.05   # rival within this share of the winner's balanced gain: a candidate for "not identifiable"
@@ -83,7 +82,7 @@ class Fitted:
 
 
 def _declared(cand: Candidate, base: Network,
-              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParam, float]]] | None:
+              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParameter, float]]] | None:
     """The augmented network at start values and each free parameter with its start value.
 
     The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism; with
@@ -112,7 +111,7 @@ def _declared(cand: Candidate, base: Network,
     return None if scale_held and not scaled else (net, out)
 
 
-def _held_amplitudes(part: Candidate, free: list[FreeParam], amp: float) -> dict[str, float]:
+def _held_amplitudes(part: Candidate, free: list[FreeParameter], amp: float) -> dict[str, float]:
     """Amplitude parameters (neutral 0) of a shaped candidate that the fit does not search, at their default ×
     the screening's temperature amplitude ``amp``: a heat path held at its default would keep the default's
     temperature response, however much the screening scaled it (within the parameter's bounds; none when
@@ -173,13 +172,7 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
         net, declared = start
         searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
         net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
-        free = []
-        for fp, v in searched:
-            lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-            if fp.scale == "log":
-                lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
-            free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi,
-                                      fp.unit, log=fp.scale == "log"))
+        free = [fp.on_network_scale(v) for fp, v in searched]
         for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
             res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
                             level=level, max_evaluations=max_evaluations)
