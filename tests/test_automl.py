@@ -211,7 +211,7 @@ def test_verb_logs_a_parent_run_with_leaderboard_and_family_children(tmp_path):
     assert {"test/rmse", "baseline/persistence/test/rmse", "baseline/mlr/test/rmse"} <= set(parent.data.metrics)
     client = mlflow.MlflowClient()
     names = {a.path for a in client.list_artifacts(parent.info.run_id)}
-    assert {"leaderboard.csv", "leaderboard.md"} <= names
+    assert {"leaderboard.csv", "leaderboard.md", "limits.json"} <= names
     board = pd.read_csv(client.download_artifacts(parent.info.run_id, "leaderboard.csv", str(tmp_path)))
     assert set(board["model"]) <= {"mlr", "ridge_demo", "ensemble"}
     assert out.stdout.strip().splitlines()[-1].startswith(f"MLflow run {parent.info.run_id} at ")

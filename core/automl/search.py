@@ -33,7 +33,7 @@ PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is with
 class Settings:
     """``budget_fits``: fits in all (default sized for ≤ 10 min on FL_THERMAL, 2 cores); ``timeout_s``: optional
     wall-clock limit (load-dependent); ``max_folds``: inner folds; ``tpe_families``: how many of the best
-    families (by their portfolio score) TPE searches; ``top_rung``: network fidelities above the portfolio's;
+    cheap families (by their portfolio score) TPE searches; ``top_rung``: network fidelities above the portfolio's;
     ``ensemble_pool``: candidates the greedy ensemble draws from; ``families``: restrict to these models."""
 
     budget_fits: int = 120
@@ -142,7 +142,10 @@ class Search:
         return any(t.state == optuna.trial.TrialState.WAITING for t in self.study.trials)
 
     def _tpe(self) -> None:
-        ranked = self._family_ranking()
+        """TPE over the settings of the best cheap families: a medium or expensive family's fit costs minutes, so
+        it takes part untuned (and, for a network, through successive halving), which keeps the default budget
+        within its time."""
+        ranked = [f for f in self._family_ranking() if self.families[f].cost == "cheap"]
         chosen = [f for f in ranked if f not in self.failed_families][:self.settings.tpe_families]
         if not chosen:
             return

@@ -3,8 +3,9 @@ family's hyper-parameters, over every registered model (third-party plugins incl
 
 A candidate is a ``pipeline`` model's parameters (``model``, ``model_params``, ``selector``, ``selector_params``,
 ``features``) plus a fidelity (``rung``: epochs of a network, see :func:`at_rung`). A plugin may declare, as class
-attributes, ``automl_cost`` ("cheap", "medium", "expensive"; "skip" leaves it out) and ``automl_space`` (a
-search space in :mod:`thermodrift.core.search_space` form replacing its ``search_space()`` here); the defaults
+attributes, ``automl_cost`` ("cheap", "medium", "expensive"; "skip" leaves it out), ``automl_space`` (a
+search space in :mod:`thermodrift.core.search_space` form replacing its ``search_space()`` here) and
+``automl_features`` (whether a feature stage may feed it; never for models reading raw channels by role); the defaults
 below come from the registry: a model trained by :mod:`thermodrift.core.training` (a network) is expensive,
 every other one cheap. Models that read the measured target (``uses_target_history``: persistence) are
 references, never candidates.
@@ -26,6 +27,9 @@ COSTS = ("cheap", "medium", "expensive")
 # Registry defaults for the built-in components (a plugin states its own with ``automl_cost``).
 MODEL_COSTS = {"lptn": "medium", "lptn_hybrid": "medium", "mnr": "cheap", "pso_bpnn": "skip",
                "pipeline": "skip", "ensemble": "skip"}
+# Families that take no feature stage by default (a plugin states its own with ``automl_features``): MNR expands
+# its inputs into polynomial terms, which many filtered columns make slow and ill-conditioned.
+NO_FEATURES = {"mnr"}
 # Selectors: every registered one takes part unless it is slow (it trains networks or runs a swarm per fit) or
 # random; a plugin selector may set ``automl_cost = "skip"``.
 SELECTOR_COSTS = {"fuzzy_sensitivity": "skip", "hdbscan_pso": "skip", "random_k": "skip"}
@@ -101,8 +105,9 @@ def families(reg: registry.Registry | None = None, only: list[str] | None = None
         space = getattr(cls, "automl_space", None)
         space = dict(cls.search_space() if space is None else space)
         search_space.distributions(space)
-        takes = "speed" not in getattr(cls, "extra_input_roles", ()) and \
-            "cutting_power" not in getattr(cls, "extra_input_roles", ())
+        roles = getattr(cls, "extra_input_roles", ())
+        takes = getattr(cls, "automl_features", name not in NO_FEATURES) and "speed" not in roles \
+            and "cutting_power" not in roles
         out.append(Family(name, cost if cost in COSTS else "cheap", space, takes, network))
     return out
 

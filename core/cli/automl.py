@@ -102,7 +102,7 @@ def log(result, config: dict) -> None:
     chosen = {"name": job.spec.model, "params": job.spec.model_params}
     params = {k: v for k, v in config.items() if k not in ("model", "selector", "optimizer", "search_space",
                                                             "n_trials")}
-    tracking.log_result(job, {**params, "model": chosen})
+    tracking.log_result(job, {**params, "model": chosen})  # with the model: limits.json, as `run` logs it
     best = result.search.best
     mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol,
                      "automl.chosen": _describe(result)[:5000], "automl.family": best.candidate.family,
@@ -120,8 +120,6 @@ def log(result, config: dict) -> None:
         mlflow.log_artifact(str(Path(tmp) / "leaderboard.md"))
         (Path(tmp) / "chosen.json").write_text(json.dumps(chosen, indent=2, default=str), encoding="utf-8")
         mlflow.log_artifact(str(Path(tmp) / "chosen.json"))
-    # LIMITS CALL SITE: log limits.json (per input: min, max, largest step on the refit's training rows) with the
-    # compensator's function once it lands, as `thermodrift run` does.
     parent = mlflow.active_run().info.run_id
     board = result.leaderboard[result.leaderboard["model"] != "ensemble"]
     for family, rows in board.groupby("model", sort=True):
