@@ -217,3 +217,15 @@ def test_verb_logs_a_parent_run_with_leaderboard_and_family_children(tmp_path):
     assert out.stdout.strip().splitlines()[-1].startswith(f"MLflow run {parent.info.run_id} at ")
     model = mlflow.pyfunc.load_model(f"runs:/{parent.info.run_id}/model")
     assert model is not None
+
+
+def test_a_rerun_resumes_from_the_storage_and_only_runs_the_missing_budget(tmp_path):
+    spec = JobSpec(dataset="recording_file", model="mlr", storage=f"sqlite:///{tmp_path / 'o.db'}", progress=False)
+    said = []
+    first = job.run(spec, Settings(budget_fits=6, families=["mlr", "ridge_demo"], max_folds=2),
+                    recording=tiny_recording())
+    second = job.run(spec, Settings(budget_fits=10, families=["mlr", "ridge_demo"], max_folds=2),
+                     say=said.append, recording=tiny_recording())
+    assert first.search.fits == 6 and second.search.fits == 10 and any("resumed" in s for s in said)
+    assert [e.number for e in second.search.entries][:3] == [e.number for e in first.search.entries]
+    assert [e.score for e in second.search.entries][:3] == [e.score for e in first.search.entries]
