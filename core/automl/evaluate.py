@@ -7,7 +7,6 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
-import pandas as pd
 
 from thermodrift.core import efficiency, registry
 from thermodrift.core.automl.folds import aggregate
@@ -66,6 +65,3 @@ class Evaluator:
         """Per-fold RMSE (µm, mean over targets) and the aggregated score of given fold predictions."""
         rmse = [float(evaluate(t, p)["mean"]["rmse"]) for t, p in zip(self.truth, preds)]
         return rmse, aggregate(rmse)
-
-    def frame(self) -> pd.DataFrame:
-        return self.X

@@ -15,7 +15,6 @@ import time
 import warnings
 from dataclasses import dataclass
 
-import numpy as np
 import optuna
 import torch
 
@@ -138,8 +137,3 @@ def _study(spec: JobSpec, name: str) -> optuna.Study:
         storage = Job.storage(spec.storage) if spec.storage else None
         return schema.retrying(lambda: optuna.create_study(study_name=name, storage=storage, sampler=sampler,
                                                            direction="minimize", load_if_exists=True), spec.storage)
-
-
-def scores(result: AutoMLResult) -> dict[str, float]:
-    """Held-out RMSE (µm) of the chosen model and baselines, mean over targets."""
-    return {who: float(np.mean([result.job.summary_metrics(who)["rmse"]])) for who in result.job.folds[0].metrics}

@@ -248,22 +248,21 @@ class Search:
                 best[e.candidate.family] = min(best.get(e.candidate.family, np.inf), e.score)
         return sorted(best, key=lambda f: (best[f], f))
 
+    def _full(self, e: Entry) -> bool:
+        """Whether ``e`` was trained as its refit will be: any family but a network below its top rung."""
+        fam = self.families.get(e.candidate.family)
+        return fam is None or not fam.network or e.candidate.rung == self.settings.top_rung
+
     def _best(self, ok: list[Entry]) -> Entry:
-        """The best candidate by score; a network counts only at its top rung (full epochs) unless none has one,
-        so the refit trains what was scored."""
-        top = self.settings.top_rung
-        full = [e for e in ok if not self.families.get(e.candidate.family, space.Family("", "", {}, False,
-                                                                                        False)).network
-                or e.candidate.rung == top]
-        return min(full or ok, key=lambda e: (e.score, e.number))
+        """The best candidate by score among those trained as the refit will be (else among all)."""
+        return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
 
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
         top = self.settings.top_rung
         pool, seen = [], set()
         for e in sorted(ok, key=lambda e: (e.score, e.number)):
-            fam = self.families.get(e.candidate.family)
             key = json.dumps(e.candidate.params, sort_keys=True, default=str)
-            if key in seen or (fam is not None and fam.network and e.candidate.rung != top):
+            if key in seen or not self._full(e):
                 continue
             seen.add(key)
             pool.append(e)

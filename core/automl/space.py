@@ -14,7 +14,7 @@ references, never candidates.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -64,14 +64,10 @@ class Candidate:
     rung: int = 0
     origin: str = "tpe"
     label: str = ""
-    extra: dict = field(default_factory=dict)
 
     @property
     def family(self) -> str:
         return self.params["model"]
-
-    def key(self) -> str:
-        return json.dumps({"params": self.params, "rung": self.rung}, sort_keys=True, default=str)
 
     def to_json(self) -> str:
         return json.dumps({"params": self.params, "rung": self.rung, "origin": self.origin, "label": self.label},
