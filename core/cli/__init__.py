@@ -19,6 +19,7 @@ VERBS = {
     "plugins": ("thermodrift.core.cli.plugins", "List every registered component by kind with its origin."),
     "validate": ("thermodrift.core.cli.validate", "Check a recording (table + manifest) and print a summary."),
     "run": ("thermodrift.core.cli.run", "Run experiments (Hydra overrides; -m for a grid)."),
+    "automl": ("thermodrift.core.cli.automl", "Search selector x features x model family x settings (run's overrides)."),
     "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
     "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
@@ -37,6 +38,12 @@ def main(argv: list[str] | None = None) -> int:
         from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
         print(run_options.help_text())
         return 0
+    if argv and argv[0] == "automl":  # `thermodrift run automl=default ...`: the same overrides and checks
+        from thermodrift.core.cli import automl as automl_options
+        if "-h" in argv[1:] or "--help" in argv[1:]:
+            print(automl_options.help_text())
+            return 0
+        argv = ["run", *automl_options.as_run(argv[1:])]
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
         from thermodrift.core import registry, tracking_faults
         from thermodrift.core.cli import run_options
@@ -52,8 +59,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="thermodrift", description=plain(__doc__.splitlines()[0]))
     sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
     for verb, (module_name, help_text) in VERBS.items():
-        if verb == "run":
-            sub.add_parser("run", help=help_text, add_help=False)
+        if verb in ("run", "automl"):
+            sub.add_parser(verb, help=help_text, add_help=False)
             continue
         vparser = sub.add_parser(verb, help=help_text, description=help_text)
         vparser.set_defaults(_module=module_name)

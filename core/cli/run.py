@@ -128,7 +128,7 @@ def _task(cfg: DictConfig) -> float | None:
     try:
         tracking_faults.check(cfg.tracking.uri)
         schema.retrying(lambda: tracking.setup(cfg.tracking.uri, cfg.tracking.experiment), cfg.tracking.uri)
-        value = _job(cfg, spec, multirun)
+        value = (_automl_job if cfg.get("automl") else _job)(cfg, spec, multirun)
     except InputError as exc:  # the server was down when this job started
         _record_job(study_name, None)
         return _bad_input(exc, multirun)
@@ -137,6 +137,11 @@ def _task(cfg: DictConfig) -> float | None:
         value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
     _record_job(study_name, value)
     return value
+
+
+def _automl_job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
+    from thermodrift.core.cli import automl  # `thermodrift automl`, or `run automl=default`
+    return automl.job(cfg, spec, multirun, _bad_input)
 
 
 def _record_job(study_name: str, value: float | None) -> None:

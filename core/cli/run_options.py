@@ -29,10 +29,13 @@ GROUPS = {
     "model": ("model", "the thermal-error model, °C -> µm, tuned by Optuna"),
     "optimizer": ("optimizer", "the Optuna sampler that tunes the model"),
     "experiment": (None, "a preset that may override any key"),
+    "automl": (None, "search across families instead of one model (thermodrift automl; automl.budget_fits=N)"),
 }
 # The keys under a group's node (`model.params.alpha=0.1`); experiment presets are global.
 GROUP_KEYS = {"dataset": ["name", "params"], "split": ["kind", "params"], "selector": ["name", "params"],
-              "model": ["name", "params", "search_space"], "optimizer": ["name", "params"]}
+              "model": ["name", "params", "search_space"], "optimizer": ["name", "params"],
+              "automl": ["budget_fits", "timeout_s", "max_folds", "tpe_families", "top_rung", "ensemble_pool",
+                         "ensemble_steps", "families"]}
 EXAMPLES = """\
   thermodrift run                                    demo_spindle, mlr tuned by tpe, 20 trials
   thermodrift run model=bp n_trials=50               another model, a larger budget
