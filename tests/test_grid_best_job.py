@@ -53,7 +53,8 @@ def grid(tmp_path, monkeypatch):
             "protocol": protocol, "ablation": "none", "targets": "radial_error"})
         for k, v in params.items():
             client.log_param(run.info.run_id, f"split.params.{k}", v)
-        for metric, value in {"valid/best_rmse": valid, "test/rmse": valid + 1, "test/radial_error/rmse": valid + 1}.items():
+        metrics = {"valid/best_rmse": valid, "test/rmse": valid + 1, "test/radial_error/rmse": valid + 1}
+        for metric, value in metrics.items():
             client.log_metric(run.info.run_id, metric, value)
         client.set_terminated(run.info.run_id)
         ids[name] = run.info.run_id
@@ -70,7 +71,8 @@ def test_the_parent_carries_the_best_honest_job_and_names_the_best_paper_job(gri
     assert client.get_run(parent).data.metrics["valid/best_rmse"] == 2.0  # the honest job's, not a paper one's
     out = capsys.readouterr().out
     assert f"best job by inner validation RMSE: honest_lstm ({ids['honest_lstm']})" in out
-    assert f"best paper job by inner validation RMSE (protocol=paper" in out and f"paper_336 ({ids['paper_336']})" in out
+    assert "best paper job by inner validation RMSE (protocol=paper" in out
+    assert f"paper_336 ({ids['paper_336']})" in out
 
 
 def test_the_grid_table_labels_the_two_paper_splits_distinctly(grid):
