@@ -182,7 +182,10 @@ def log_result(result, params: dict[str, Any]) -> None:
     # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
     artifacts.log_model(result.model, result.spec.model)
     if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
-        deployment.log(result)
+        try:
+            deployment.log(result)
+        except Exception as exc:  # the job's results are logged; what export needs and failed is only noted
+            mlflow.set_tag("compensator_error", _short(f"{type(exc).__name__}: {exc}"))
 
 
 def _log_dataset(result) -> None:
