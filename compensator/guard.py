@@ -71,7 +71,7 @@ class Compensator:
         self.gap_s = safety["time_gap_factor"] * package.sampling_interval_s
         self.model = package.runtime.streamer(history, history_times_s)
         self.fallbacks = package.fallbacks  # sensor -> {"state", "warmup_rows"}
-        self._fb_runtimes: dict[str, object] = {}
+        self._fb_runtimes: dict[str, tuple[object, np.ndarray]] = {}  # sensor -> (runtime, its input positions)
         self._fb: tuple[str, object] | None = None  # the fallback in use: (sensor, streamer)
         warm = max([int(f.get("warmup_rows", 0)) for f in self.fallbacks.values()] or [0])
         self.buffer: deque = deque(maxlen=max(warm, 1))  # recent model rows (failed values replaced)
@@ -82,7 +82,6 @@ class Compensator:
         self.last_good = mid  # until a sensor reads well once, its training mid-range stands in
         self.jump_allow = self.jump.copy()  # a failed row widens the allowed jump by one training step more
         self.any_bad = False
-        self.t_prev_checked = False
         self.prev_values: np.ndarray | None = None
         self.same = np.zeros(len(ins))
         self.t_prev: float | None = None
@@ -96,14 +95,15 @@ class Compensator:
         """None when every input passes; else a reason code per input: 0 good, 1 missing, 2 out of range,
         3 stuck, 4 jump. (Comparisons with NaN are false, so the in-range test also fails a missing value.)"""
         passed = (values >= self.low) & (values <= self.high)
-        if self.prev_values is not None:
+        have_prev = self.prev_values is not None
+        if have_prev:
             self.same = np.where(values == self.prev_values, self.same + 1.0, 0.0)
             passed &= (self.same < self.stuck) & (np.abs(values - self.last_good) <= self.jump_allow)
         self.prev_values = values
         if np.count_nonzero(passed) == len(passed):  # count_nonzero: one C call, cheaper than .all()
             return None
         code = np.where(passed, 0, 2).astype(np.int8)
-        if self.t_prev_checked:
+        if have_prev:
             code[self.same >= self.stuck] = 3
             code[~(np.abs(values - self.last_good) <= self.jump_allow) & ~np.isnan(values)] = 4
         code[(values < self.low) | (values > self.high)] = 2
@@ -119,7 +119,6 @@ class Compensator:
                 return self.hold_row(t_s, values, [("time", "time_not_increasing")])
             if t_s - self.t_prev > self.gap_s:
                 faults.append(("time", "time_gap"))
-        self.t_prev_checked = self.prev_values is not None
         self.t_prev = t_s
         code = self.check(values)
         if code is None:  # the common case: every input passed
@@ -189,16 +188,16 @@ class Compensator:
         if spec is None:
             self._fb = None
             return None
-        rt = self._fb_runtimes.get(sensor)
-        if rt is None:
-            rt = self._fb_runtimes[sensor] = runtime.build(spec["state"])
-            rt._idx = np.array([self.package.inputs.index(c) for c in rt.inputs], dtype=int)
+        if sensor not in self._fb_runtimes:
+            rt = runtime.build(spec["state"])
+            self._fb_runtimes[sensor] = rt, np.array([self.package.inputs.index(c) for c in rt.inputs], dtype=int)
+        rt, idx = self._fb_runtimes[sensor]
         if self._fb is None or self._fb[0] != sensor:  # warm a fresh one on the recent rows
             rows = list(self.buffer)
-            history = np.array([r[1][rt._idx] for r in rows]) if rows else None
+            history = np.array([r[1][idx] for r in rows]) if rows else None
             times = np.array([r[0] for r in rows]) if rows else None
             self._fb = (sensor, rt.streamer(history, times))
-        return self._fb[1].update(fed[rt._idx], t_s)
+        return self._fb[1].update(fed[idx], t_s)
 
     def _probe(self, t_s: float, model_out) -> np.ndarray:
         self.bias.advance(t_s)

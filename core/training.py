@@ -492,6 +492,37 @@ class TorchThermalModel(ThermalModel):
         return predict(module, self._inputs(X), self.x_scaler_, self.y_scaler_,
                        resolve_device(self.trainer_settings().device))
 
+    def export_state(self) -> dict[str, Any]:
+        """Runtime ``sequence`` (architecture ``torch.export``): the network traced by ``torch.export`` for one
+        sample (``window`` rows for sequence models), its graph as JSON bytes and its weights as tensors, and the
+        scalers; :mod:`thermodrift.compensator.networks` runs it without this class."""
+        import io
+
+        import torch
+        from torch._export.serde import serialize as serde
+
+        with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
+            module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
+        module.load_state_dict(self.state_dict_)
+        sample = self._inputs(pd.DataFrame(np.zeros((1, len(self.feature_names_in_))), columns=self.feature_names_in_))
+        window = int(sample.shape[1]) if sample.ndim == 3 else None
+        program = torch.export.export(module.eval(), (torch.zeros(sample.shape),))
+        art = serde.serialize(program)
+
+        def tensors(blob: bytes):
+            return torch.load(io.BytesIO(blob), weights_only=True) if blob else {}
+
+        weights = tensors(art.state_dict)
+        return {"runtime": "sequence", "architecture": "torch.export", "window": window,
+                "inputs": [str(c) for c in self.feature_names_in_], "targets": list(self.target_names_),
+                "history_length": self.history_length,
+                "program": np.frombuffer(art.exported_program, dtype=np.uint8).copy(),
+                "weights": dict(weights),
+                "parameters": [k for k, v in weights.items() if isinstance(v, torch.nn.Parameter)],
+                "constants": dict(tensors(art.constants)),
+                "x_mean": np.asarray(self.x_scaler_.mean), "x_scale": np.asarray(self.x_scaler_.scale),
+                "y_mean": np.asarray(self.y_scaler_.mean), "y_scale": np.asarray(self.y_scaler_.scale)}
+
 
 _TRAINER_FIELDS = frozenset(f.name for f in dataclasses.fields(TrainerSettings))
 

@@ -35,7 +35,8 @@ def export(model, X, y, folder, fallbacks=None):
 
 
 @pytest.mark.parametrize("name, tol", [("mlr", 1e-9), ("transfer_function", 1e-9), ("lptn", 1e-9),
-                                       ("lptn_hybrid", 1e-9), ("lstm", 1e-4)])
+                                       ("lptn_hybrid", 1e-9), ("lstm", 1e-4), ("bp", 1e-4),
+                                       ("tcn_lstm", 1e-4)])
 def test_streaming_from_the_package_equals_predict_with_history(name, tol, tmp_path, one_torch_thread):
     model, X, y = fitted(name)
     pkg = export(model, X, y, tmp_path / name)
@@ -67,8 +68,8 @@ def test_package_is_data_only_and_states_its_limits(tmp_path):
 
 
 def test_models_without_an_export_say_so():
-    model, _, _ = fitted("bp")
-    with pytest.raises(NotImplementedError, match="model BP.* cannot be exported"):
+    model, _, _ = fitted("mnr")
+    with pytest.raises(NotImplementedError, match="model MNR.* cannot be exported"):
         model.export_state()
 
 
@@ -85,7 +86,7 @@ print(' '.join(bad))
 
 
 @pytest.mark.parametrize("name, allowed", [("mlr", set()), ("transfer_function", set()), ("lptn", {"scipy"}),
-                                           ("lstm", {"torch"})])
+                                           ("lstm", {"torch"}), ("bp", {"torch"})])
 def test_runtime_imports_no_training_stack(name, allowed, tmp_path, one_torch_thread):
     model, X, y = fitted(name)
     export(model, X, y, tmp_path)

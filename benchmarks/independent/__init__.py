@@ -12,7 +12,8 @@ disjoint by construction, and the sealed half is only run with ``--sealed``.
 AMPLITUDE_RULE: per case a share s ~ U(0.2, 0.4) is drawn; the planted effect's peak-to-peak on the logged
 drift channels (truth minus the same machine, programme and hall without it; the largest over channels) is
 brought to s × the peak-to-peak of the untouched z drift, and at least 10 × the probe noise, by rescaling its
-amplitude (up to 4 simulations; ``bearing_heat_law`` stops at λ = 2 and may stay under its share).
+amplitude (up to 4 simulations), within physical ceilings (:data:`MAX_SCALE`: bearing law λ ≤ 2, centrifugal
+growth ≤ 8 µm at top speed), where an effect may stay under its share.
 ``sensor_lag`` changes readings only: its size is the pad time constant.
 """
 
@@ -33,7 +34,11 @@ HIDDEN = planted.HIDDEN
 SEALED_FROM = 1000
 NULL_OFFSET = 500
 AMPLITUDE_RULE = ("planted peak-to-peak = s × untouched z peak-to-peak, s ~ U(0.2, 0.4) per case, at least "
-                  "10 × probe noise; sensor_lag: pad τ 300–1200 s")
+                  "10 × probe noise, within physical ceilings (centrifugal ≤ 8 µm at top speed, bearing-law mix "
+                  "λ ≤ 2); sensor_lag: pad τ 300–1200 s")
+# physical ceilings of the amplitude: bearing law λ ≤ 2; centrifugal growth ≤ 8 µm at top speed (HSK spindles at
+# 6000–12000 rpm grow 1–8 µm); an effect at its ceiling may stay under its drawn share
+MAX_SCALE = {"bearing_heat_law": 2.0, "centrifugal_growth": 8.0}
 SENSOR_SITES = {"T_front_bearing": ("housing_fb", 1.0), "T_rear_bearing": ("housing_rb", 0.8),
                 "T_motor": ("motor_housing", 0.8), "T_column": ("column_head", 0.6), "T_bed": ("bed", 0.5)}
 
@@ -133,11 +138,10 @@ def make_case(seed: int, hidden: str | None, dt_s: float = 120.0, hours: float =
             got = max(effect_um.values())
             if got <= 0 or abs(got / goal - 1) < 0.15 or it == 3:
                 break
-            if hidden == "bearing_heat_law" and effect.scale >= 2.0 and got < goal:
-                break  # λ = 2 is the largest this mechanism gets
-            effect.scale *= float(np.clip(goal / got, 0.2, 5.0))
-            if hidden == "bearing_heat_law":
-                effect.scale = min(effect.scale, 2.0)
+            cap = MAX_SCALE.get(hidden, np.inf)
+            if effect.scale >= cap and got < goal:
+                break  # the largest this mechanism physically gets
+            effect.scale = min(effect.scale * float(np.clip(goal / got, 0.2, 5.0)), cap)
     air_true = quiet + min(effect.scale, 1.0) * (lively - quiet) if hidden == "ambient_coupling" else quiet
     table, manifest, info = _readings(machine if effect else plain, truth, prog, air_true, every, r_sens, has_x,
                                       probe_noise, effect if hidden == "sensor_lag" else None, cooled,

@@ -23,9 +23,9 @@ What the missing-physics finder needs besides ``apply`` (checked by ``thermodrif
 A mechanism's free parameters are :class:`~thermodrift.core.physics.calibration.FreeParameter` s, the type
 calibration searches: a parameter in the mechanism's unit, the network paths it sets (network value =
 factor·value + offset), its bounds and start, and its scale: ``log`` (positive network value, searched in log
-space), ``linear`` or ``projected`` (enters the outputs linearly, so calibration solves it by least squares).
-:meth:`Mechanism.declare` checks every path exists and that the bounds stay inside the network field's physical
-limits.
+space), ``linear`` or ``projected`` (enters the outputs linearly: calibration's linear step solves it with the
+sensitivities, so it is not searched). :meth:`Mechanism.declare` checks every path exists and that the bounds stay
+inside the network field's physical limits.
 
 Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options``, ``drivers`` and
 ``signature`` (the residual signature a missing instance leaves, used as evidence text) and ``laws`` (the

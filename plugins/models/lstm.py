@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.training import TrainerSettings
 from thermodrift.plugins.models._sequence import SequenceModel
