@@ -140,39 +140,28 @@ def test_ensemble_streams_and_exports_its_members():
     assert model.weights_.tolist() == [0.25, 0.75] and model.history_length is None
 
 
-class Exportable(ThermalModel):
-    """A linear model with an ``export_state`` (the compensator's contract), to check the pipeline's state."""
+def test_exported_pipeline_and_ensemble_stream_as_the_compensator_runs_them():
+    """``export_state()`` follows the export contract: the compensator's runtimes reproduce ``predict``."""
+    from thermodrift.compensator import runtime
 
-    def _fit(self, X, y):
-        self.coef_ = np.linalg.lstsq(np.c_[X.to_numpy(), np.ones(len(X))], y, rcond=None)[0]
-
-    def _predict(self, X):
-        return np.c_[X.to_numpy(), np.ones(len(X))] @ self.coef_
-
-    def export_state(self):
-        return {"runtime": "linear", "inputs": list(self.feature_names_in_), "targets": self.target_names_,
-                "history_length": 0, "coef": self.coef_}
-
-
-@pytest.fixture()
-def exportable_family():
-    reg = registry.default()
-    reg.add("model", "exportable_family", Exportable)
-    yield
-    del reg.components["model"]["exportable_family"]
-
-
-def test_pipeline_export_state_follows_the_contract(exportable_family):
     rec = tiny_recording()
-    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "pipeline").factory, ["disp_z_um"])
-    model = registry.create("model", "pipeline", model="exportable_family", features=FEATURES,
-                            selector="correlation_top_k", selector_params={"k": 2})
-    state = model.fit(X, rec.data[["disp_z_um"]]).export_state()
-    assert state["runtime"] == "pipeline" and state["inputs"] == list(X.columns)
-    assert state["targets"] == ["disp_z_um"] and state["history_length"] is None
-    assert len(state["selected"]) == 3 and "speed_rpm" in state["selected"]  # 2 sensors + the drive
-    assert state["features"]["taus_s"].tolist() == FEATURES["taus_s"]
-    assert state["model"]["inputs"] == state["features"]["names"]
+    targets = ["disp_z_um", "disp_x_um"]
+    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "pipeline").factory, targets)
+    y = rec.data[targets]
+    models = [registry.create("model", "pipeline", model="mlr", features=FEATURES, selector="correlation_top_k",
+                              selector_params={"k": 2}),
+              registry.create("model", "ensemble", members=[{"model": "transfer_function"},
+                                                            {"model": "mlr", "features": FEATURES}], weights=[1, 2])]
+    for model in models:
+        state = model.fit(X.iloc[:200], y.iloc[:200]).export_state()
+        assert state["inputs"] == list(X.columns) and state["targets"] == targets
+        if state["runtime"] == "pipeline":
+            assert len(state["selected"]) == 3 and "speed_rpm" in state["selected"]  # 2 sensors + the drive
+            assert state["model"]["inputs"] == state["features"]["names"]
+        rt = runtime.build(state)
+        stream = rt.streamer(X.iloc[:200].to_numpy(dtype=float), X.index[:200].to_numpy(dtype=float))
+        out = np.array([stream.update(X.iloc[i].to_numpy(dtype=float), float(X.index[i])) for i in range(200, 240)])
+        assert np.abs(out - model.predict(X.iloc[200:240], history=X.iloc[:200])).max() < 1e-9
 
 
 def _cli(cwd, *args, timeout=600):

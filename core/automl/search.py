@@ -258,10 +258,12 @@ class Search:
         return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
 
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
+        """Greedy ensemble over a diverse pool: the best candidate of each family with raw inputs and with
+        features (members that err differently are what an ensemble gains from), best first."""
         top = self.settings.top_rung
         pool, seen = [], set()
         for e in sorted(ok, key=lambda e: (e.score, e.number)):
-            key = json.dumps(e.candidate.params, sort_keys=True, default=str)
+            key = (e.candidate.family, e.candidate.params.get("features") is None)
             if key in seen or not self._full(e):
                 continue
             seen.add(key)
