@@ -312,6 +312,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--timing", action="store_true", help="with --generator fd: add two 30 h recordings at 15 s")
+    ap.add_argument("--part", metavar="K/N", help="with --generator fd|lumped: run only every N-th case from the K-th "
+                    "(1-based), for N processes side by side (each with its own --results; --pool joins them)")
     ap.add_argument("--pool", nargs="+", type=Path, metavar="ROWS",
                     help="run nothing: one report over the finished cases of these --results files (generators pooled)")
     args = ap.parse_args(argv)
@@ -364,12 +366,20 @@ def main(argv: list[str] | None = None) -> int:
 def main_independent(args, done: dict, start: float) -> int:
     import tempfile
 
-    specs = [(s_, h, c, 120.0) for s_, h, c in independent_cases(args)]
+    cases = independent_cases(args)
+    hid, nul = [c for c in cases if c[1]], [c for c in cases if not c[1]]
+    # hidden and null cases interleaved, so a run cut short (or one --part of it) holds a balanced share of both
+    mixed = sorted([(i / len(hid), 0, c) for i, c in enumerate(hid)]
+                   + [((i + 0.5) / len(nul), 1, c) for i, c in enumerate(nul)], key=lambda x: (x[0], x[1]))
+    specs = [(s_, h, c, 120.0) for _, _, (s_, h, c) in mixed]
     if args.full or args.timing:  # run time at the target's sampling: two 30 h recordings at 15 s
         base = independent.SEALED_FROM if args.sealed else 0
         specs += [(base + 900, "coolant_coupling", False, 15.0), (base + 901, "slow_structural_mode", False, 15.0)]
     if args.only:
         specs = [x for x in specs if (x[1] or "none") in args.only]
+    if args.part:
+        k, n = (int(v) for v in args.part.split("/"))
+        specs = specs[k - 1::n]
     rows = []
     if args.skip_synthetic:
         specs = []

@@ -55,4 +55,9 @@ class Package:
 def load(folder: str | Path) -> Package:
     """The package in ``folder`` (written by ``thermodrift export``); :class:`PackageError` if it is not one."""
     folder = Path(folder)
-    return Package(_package.read(folder), folder)
+    doc = _package.read(folder)
+    try:
+        return Package(doc, folder)
+    except KeyError as missing:
+        raise PackageError(f"{folder}: the package has no entry {missing}; it was written by another version, "
+                           "export the run again") from None

@@ -3,7 +3,8 @@
 - ``limits.json``: per input the minimum, maximum, largest step per sample and longest constant run on the
   refit's training rows; per target the same in µm; the sampling interval (s); the targets' axes and positions
   from the manifest (:func:`thermodrift.compensator.limits.training_limits`).
-- ``fallbacks/``: for families whose refit is cheap (linear and filter read-outs, and pipelines around them),
+- ``fallbacks/``: for families whose refit is cheap (linear and filter read-outs, pipelines around them and
+  ensembles of such pipelines),
   one model per input fitted on the same training rows without that input, with the refit's parameters, as
   exported states (a compensator package tree: data only). A controller switches to one when that sensor fails
   (:mod:`thermodrift.compensator.guard`). Physics and network families get none: their refit costs minutes,
@@ -71,6 +72,8 @@ def warmup_rows(state: dict[str, Any], sampling_interval_s: float) -> int:
     """Rows a fresh streamer of ``state`` needs before its output no longer depends on how it started."""
     if state.get("history_length") is not None:
         return int(state["history_length"])
+    if state.get("runtime") == "ensemble":
+        return max(warmup_rows(m, sampling_interval_s) for m in state["members"])
     if state.get("runtime") == "pipeline" and state.get("features") is None:
         return warmup_rows(state["model"], sampling_interval_s)
     taus = np.asarray((state.get("features") or {}).get("taus_s", []), dtype=float)
@@ -81,6 +84,8 @@ def warmup_rows(state: dict[str, Any], sampling_interval_s: float) -> int:
 def _cheap(state: dict[str, Any]) -> bool:
     if state.get("runtime") == "pipeline":
         return state["model"].get("runtime") in CHEAP_RUNTIMES
+    if state.get("runtime") == "ensemble":
+        return all(_cheap(m) for m in state["members"])
     return state.get("runtime") in CHEAP_RUNTIMES
 
 
@@ -103,7 +108,15 @@ def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: floa
 
 
 def log(result) -> None:
-    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``)."""
+    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``).
+    A model that reads more than recorded channels (the persistence reference reads the previous measured
+    displacement) gets neither: no controller can feed it."""
+    import mlflow
+
+    missing = [str(c) for c in result.model.feature_names_in_ if c not in result.recording.data.columns]
+    if missing:
+        mlflow.set_tag("compensator", f"not exportable: inputs {', '.join(missing)[:200]} are not recorded channels")
+        return
     X, y = training_frame(result)
     log_training(result.model, X, y, axes(result))
 

@@ -182,7 +182,10 @@ def log_result(result, params: dict[str, Any]) -> None:
     # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
     artifacts.log_model(result.model, result.spec.model)
     if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
-        deployment.log(result)
+        try:
+            deployment.log(result)
+        except Exception as exc:  # the job's results are logged; what export needs and failed is only noted
+            mlflow.set_tag("compensator_error", _short(f"{type(exc).__name__}: {exc}"))
 
 
 def _log_dataset(result) -> None:
@@ -290,8 +293,8 @@ class SweepRun(Callback):
     The parent's id reaches the jobs (also joblib worker processes) through ``THERMODRIFT_PARENT_RUN_ID``.
     At the end the terminal gets one table of every job (:func:`thermodrift.core.report.runs_table`) and the parent
     run's id; the parent gets a ``grid.csv`` of every child's metrics and the metrics, params and ``best_run_id``
-    of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores)
-    among the compensation models (a job tagged ``reference``, such as persistence, only when all are).
+    of the best finished job (:func:`thermodrift.core.report.best_jobs`: by inner validation RMSE, never by held-out
+    scores, compared only within a protocol, honest first; a paper-protocol best is tagged ``best_paper_run_id``).
     """
 
     def on_multirun_start(self, config, **kwargs) -> None:
@@ -322,9 +325,10 @@ class SweepRun(Callback):
                 report.log_to_parent(client, parent)
             except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
                 client.set_tag(parent, "report_error", str(exc)[:500])
-        finished = [c for c in children if c.info.status == "FINISHED" and "valid/best_rmse" in c.data.metrics]
-        models = [c for c in finished if "reference" not in c.data.tags] or finished  # compensation models first
-        best = min(models, key=lambda c: c.data.metrics["valid/best_rmse"]) if models else None
+        ranked = report.best_jobs(children)  # one per protocol, honest first: never compared across protocols
+        best = ranked[0] if ranked else None
+        for other in ranked[1:]:  # e.g. the best paper-protocol job beside the best honest one
+            client.set_tag(parent, f"best_{other.data.tags.get('protocol', '')}_run_id", other.info.run_id)
         if best is not None:
             stamp = int(time.time() * 1000)
             metrics = [Metric(k, v, stamp, 0) for k, v in best.data.metrics.items()
@@ -334,12 +338,13 @@ class SweepRun(Callback):
                 client.log_batch(parent, metrics=metrics[i:i + 100], params=params[i:i + 100])
             client.set_tag(parent, "best_run_id", best.info.run_id)
             client.set_tag(parent, "best_run_name", best.info.run_name or "")
+            client.set_tag(parent, "best_protocol", best.data.tags.get("protocol", ""))
         client.set_terminated(parent)
         failed = sum(c.info.status != "FINISHED" for c in children)
         print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE (µm) "
               "per target, the baselines beside it:\n"
               + report.format_table(report.runs_table(children))
-              + (f"\nbest job by inner validation RMSE: {best.info.run_name} ({best.info.run_id})" if best else "")
+              + "".join(f"\n{line}" for line in report.best_job_lines(ranked))
               + f"\nparent MLflow run {parent} at {config.tracking.uri or DEFAULT_URI}", flush=True)
 
 

@@ -35,6 +35,7 @@ import copy
 import dataclasses
 import math
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, Iterator
@@ -506,7 +507,9 @@ class TorchThermalModel(ThermalModel):
         module.load_state_dict(self.state_dict_)
         sample = self._inputs(pd.DataFrame(np.zeros((1, len(self.feature_names_in_))), columns=self.feature_names_in_))
         window = int(sample.shape[1]) if sample.ndim == 3 else None
-        program = torch.export.export(module.eval(), (torch.zeros(sample.shape),))
+        with warnings.catch_warnings():  # torch notes that nn.LSTM sets its flat weights while traced; harmless
+            warnings.filterwarnings("ignore", message=".*were assigned during export", category=UserWarning)
+            program = torch.export.export(module.eval(), (torch.zeros(sample.shape),))
         art = serde.serialize(program)
 
         def tensors(blob: bytes):

@@ -3,12 +3,15 @@
 import pytest
 from hydra import compose, initialize_config_module
 
+from thermodrift.core import configs, registry
 from thermodrift.core.cli.run import spec_from_config
 from thermodrift.core.cli.run_options import split_flags
 
 
 @pytest.fixture()
 def cfg_for():
+    configs.store(registry.default())  # the components' config nodes, as `thermodrift run` stores them
+
     def make(*overrides):
         with initialize_config_module(config_module="thermodrift.conf", version_base="1.3"):
             return compose(config_name="config", overrides=list(overrides))

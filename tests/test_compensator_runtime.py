@@ -36,7 +36,7 @@ def export(model, X, y, folder, fallbacks=None):
 
 @pytest.mark.parametrize("name, tol", [("mlr", 1e-9), ("transfer_function", 1e-9), ("lptn", 1e-9),
                                        ("lptn_hybrid", 1e-9), ("lstm", 1e-4), ("bp", 1e-4),
-                                       ("tcn_lstm", 1e-4)])
+                                       ("tcn_lstm", 1e-4), ("pipeline", 1e-9), ("ensemble", 1e-9)])
 def test_streaming_from_the_package_equals_predict_with_history(name, tol, tmp_path, one_torch_thread):
     model, X, y = fitted(name)
     pkg = export(model, X, y, tmp_path / name)

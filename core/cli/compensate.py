@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         pkg = compensator.load(args.package)
-    except (compensator.PackageError, ValueError, KeyError) as exc:
+    except (compensator.PackageError, ValueError) as exc:
         raise InputError(f"not a usable compensator package ({exc})", file=args.package,
                          hint="pass the folder that `thermodrift export` wrote") from None
     time_col, time_scale, convert = _manifest(args.manifest, pkg.inputs)

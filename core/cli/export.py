@@ -42,6 +42,9 @@ def run(args: argparse.Namespace) -> int:
     except MlflowException:
         raise InputError(f"no MLflow run {args.run_id!r} at {args.tracking_uri}",
                          hint="pass the id that `thermodrift run` printed and the same --tracking-uri") from None
+    reason = run_info.data.tags.get("compensator") or run_info.data.tags.get("compensator_error")
+    if reason:
+        raise InputError(f"run {args.run_id}: {reason}", hint="export a run of a model that reads recorded channels")
     if deployment.LIMITS not in {a.path for a in client.list_artifacts(args.run_id)}:
         raise InputError(f"run {args.run_id} has no {deployment.LIMITS!r} artifact",
                          hint="export a job run of `thermodrift run` (not a sweep's parent run); rerun the job "

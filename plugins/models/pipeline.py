@@ -28,8 +28,9 @@ from thermodrift.compensator.features import DRIVE_ROLES, FeatureStage
 from thermodrift.core import registry
 from thermodrift.core.components import ThermalModel
 from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.recording import TEMPERATURE_ROLES
 
-SELECTABLE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")  # °C: what a selector picks from
+SELECTABLE_ROLES = TEMPERATURE_ROLES  # °C: what a selector picks from
 INPUT_ROLES = (*SELECTABLE_ROLES, *DRIVE_ROLES)
 
 
