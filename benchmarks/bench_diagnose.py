@@ -343,7 +343,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="run nothing: one report over the finished cases of these --results files (generators pooled)")
     args = ap.parse_args(argv)
     if args.pool:
-        rows = [json.loads(line) for f in args.pool for line in f.read_text(encoding="utf-8").splitlines() if line]
+        rows = list({r["case"]: r for r in (json.loads(line) for f in args.pool
+                                              for line in f.read_text(encoding="utf-8").splitlines() if line)}.values())
         args.generator = "pooled"
         print(f"# diagnose benchmark, pooled over {', '.join(str(f) for f in args.pool)}\n")
         synthetic, fl = [r for r in rows if "hidden" in r], [r for r in rows if "hidden" not in r]
