@@ -19,7 +19,6 @@ from thermodrift.plugins.datasets import recording_file as recording_file_plugin
 
 DATA = Path(__file__).parent / "data"
 GOOD_TABLE, GOOD_MANIFEST = DATA / "good" / "recording.csv", DATA / "good" / "recording.yaml"
-REPO = Path(__file__).parents[1]
 
 
 def write_manifest(path: Path, channels: dict[str, str], head: str = "time: time_s\n") -> Path:
