@@ -38,7 +38,9 @@ def test_grid_output_in_a_file_is_clean_and_names_its_sweep_and_report(grid):
     progress = [ln for ln in out.stderr.splitlines() if " trials finished" in ln]
     assert progress and all(re.fullmatch(r"\S+: \d+ of 2 trials finished, best inner validation RMSE [\d.]+ µm", ln)
                             for ln in progress)
-    assert all(ln.startswith(("[", "recording_file-")) for ln in out.stderr.splitlines())  # Hydra's or progress
+    lines = out.stderr.splitlines()  # Hydra's, progress, and one line per warning (the paper protocol's)
+    assert all(ln.startswith(("[", "recording_file-", "thermodrift: warning: ")) for ln in lines), out.stderr
+    assert sum("split=shuffled is a paper protocol" in ln for ln in lines) == 1
     assert f"sweep {sweep}: job folders in multirun/{sweep}" in out.stdout
     (where,) = re.findall(r"logged on the parent run: file://(\S+)", out.stdout)
     assert (Path(where) / "report.md").is_file() and f"thermodrift report {sweep}" in out.stdout
