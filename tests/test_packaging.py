@@ -1,5 +1,6 @@
 """The install layout: namespaced import names, no top-level squatting, every config group packaged."""
 
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -45,3 +46,18 @@ def test_entry_points_name_existing_modules():
         rel = ROOT / dirs[package] / target[len(package):].lstrip(".").replace(".", "/")
         assert rel.with_suffix(".py").exists() or (rel / "__init__.py").exists(), (
             f"entry point {name} -> {target} has no module")
+
+
+# What the README's commands write into the working folder: git must ignore every one of them.
+WRITTEN = ["mlflow.db", "mlflow.db.lock", "thermodrift.optuna.db", "thermodrift.optuna.db.lock",
+           "outputs/2026-11-26/10-00-00/run.log", "multirun/2026-11-26_10-00-00_abc123/0/job.json",
+           "mlartifacts/1/abc/artifacts/figures/a.png", "mlruns/0/meta.yaml", "reports/sweep/report.md",
+           "runs/calibrate/calibration.json", "sim/motorized_spindle_s3.csv"]
+
+
+def test_gitignore_covers_what_commands_write(tmp_path):
+    subprocess.run(["git", "init", "-q", str(tmp_path)], check=True)
+    shutil.copy(ROOT / ".gitignore", tmp_path / ".gitignore")
+    out = subprocess.run(["git", "check-ignore", "--no-index", *WRITTEN, "core/report.py", "conf/config.yaml"],
+                         cwd=tmp_path, capture_output=True, text=True)
+    assert out.stdout.split() == WRITTEN  # every output ignored, the sources not

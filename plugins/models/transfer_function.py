@@ -7,11 +7,13 @@ cutting power, W) as heat terms (v / v_ref)^p for p in ``powers``, raw and filte
 The read-out is ridge regression on standardised features; its strength is the one of ``alphas`` with the
 lowest RMSE on an inner validation fold (the last ``inner_fraction`` of the training rows), then refit on all.
 
-The filters are the exact discretisation of dx/dt = (u − x)/tau at the training sampling interval (s), so the
-model assumes the controller calls it at that interval. They start from the first input row (temperatures) and
-from rest (drive terms: a machine starts cold and stopped). That state is the model's memory
-(``history_length = None``): ``predict(X, history)`` runs the filters through ``history`` first, and
-:meth:`TransferFunction.streamer` carries it in a few numpy operations per row (≤ 0.05 ms).
+The features are :class:`thermodrift.compensator.features.FeatureStage` (the one home of the filter arithmetic,
+shared with the AutoML pipelines and the deployed compensator): the exact discretisation of dx/dt = (u − x)/tau
+at the training sampling interval (s), so the model assumes the controller calls it at that interval. The
+filters start from the first input row (temperatures) and from rest (drive terms: a machine starts cold and
+stopped). That state is the model's memory (``history_length = None``): ``predict(X, history)`` runs the
+filters through ``history`` first, and :meth:`TransferFunction.streamer` carries it in a few numpy operations
+per row (≤ 0.05 ms).
 """
 
 from __future__ import annotations
@@ -22,10 +24,9 @@ import numpy as np
 import pandas as pd
 from sklearn.linear_model import Ridge
 
+from thermodrift.compensator.features import FeatureStage
 from thermodrift.core.components import ThermalModel
 from thermodrift.core.hookspecs import hookimpl
-
-DRIVE_ROLES = ("speed", "cutting_power")
 
 
 class TransferFunction(ThermalModel):
@@ -60,17 +61,9 @@ class TransferFunction(ThermalModel):
             raise ValueError("need 0 < tau_min_s <= tau_max_s and n_taus >= 1")
         if not 0 < self.inner_fraction < 1 or not len(self.alphas):
             raise ValueError("inner_fraction must be in (0, 1) and alphas non-empty")
-        roles = X.attrs.get("roles", {})
-        cols = list(X.columns)
-        self.drive_columns_ = [c for c in cols if roles.get(c) in DRIVE_ROLES]
-        self.temperature_columns_ = [c for c in cols if c not in self.drive_columns_]
-        drive = X[self.drive_columns_].to_numpy(dtype=float)
-        self.drive_ref_ = np.where(np.abs(drive).max(axis=0) > 0, np.abs(drive).max(axis=0), 1.0) if len(drive) \
-            else np.ones(len(self.drive_columns_))
-        step = np.diff(np.asarray(X.index, dtype=float))
-        self.sample_s_ = float(np.median(step)) if len(step) and np.median(step) > 0 else 1.0
-        self.taus_s_ = np.geomspace(self.tau_min_s, self.tau_max_s, self.n_taus)
-        self.decay_ = np.exp(-self.sample_s_ / self.taus_s_)
+        self.features_ = FeatureStage.fit(X.to_numpy(dtype=float), list(X.columns), X.attrs.get("roles", {}),
+                                          np.asarray(X.index, dtype=float),
+                                          np.geomspace(self.tau_min_s, self.tau_max_s, self.n_taus), self.powers)
         F = self._features(X)
         mean, scale = F.mean(axis=0), F.std(axis=0)
         scale = np.where(scale > 0, scale, 1.0)
@@ -88,32 +81,8 @@ class TransferFunction(ThermalModel):
         self.weights_ = coef / scale
         self.intercept_ = np.atleast_1d(ridge.intercept_) - self.weights_ @ mean
 
-    # ------------------------------------------------------------------------------------------------ features
-    def _drive_terms(self, drive: np.ndarray) -> np.ndarray:
-        scaled = np.abs(drive) / self.drive_ref_
-        return np.hstack([scaled ** p for p in self.powers]) if drive.shape[1] else drive
-
-    def _initial_state(self, temps0: np.ndarray) -> np.ndarray:
-        n_drive = len(self.drive_columns_) * len(self.powers)
-        return np.concatenate([np.tile(temps0, len(self.decay_)), np.zeros(n_drive * len(self.decay_))])
-
-    def _layout(self, temps: np.ndarray, terms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Filter inputs per row, stacked (tau-major per group), and the matching per-column decays."""
-        u = np.hstack([np.tile(temps, (1, len(self.decay_))), np.tile(terms, (1, len(self.decay_)))])
-        a = np.concatenate([np.repeat(self.decay_, temps.shape[1]), np.repeat(self.decay_, terms.shape[1])])
-        return u, a
-
     def _features(self, X: pd.DataFrame) -> np.ndarray:
-        temps = X[self.temperature_columns_].to_numpy(dtype=float)
-        terms = self._drive_terms(X[self.drive_columns_].to_numpy(dtype=float))
-        u, a = self._layout(temps, terms)
-        state = self._initial_state(temps[0]) if len(temps) else np.zeros(u.shape[1])
-        filtered = np.empty_like(u)
-        # A vectorised recursion over columns; scipy.signal.lfilter would need one call per decay value.
-        for i in range(len(u)):
-            state = a * state + (1 - a) * u[i]
-            filtered[i] = state
-        return np.hstack([temps, terms, filtered])
+        return self.features_.transform(X[self.features_.inputs].to_numpy(dtype=float))
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         return self._features(X) @ self.weights_.T + self.intercept_
@@ -123,40 +92,19 @@ class TransferFunction(ThermalModel):
 
 
 class TransferFunctionStreamer:
-    """Carries the filter state; ``update(row)`` costs a handful of small numpy operations."""
+    """Carries the filter state (:class:`FeatureStream`); ``update(row)`` costs a handful of numpy operations."""
 
     def __init__(self, model: TransferFunction, history: pd.DataFrame | None = None):
-        m = model
-        self.temps, self.drives = list(m.temperature_columns_), list(m.drive_columns_)
-        self.powers = np.asarray(m.powers, dtype=float)
-        n_taus = len(m.decay_)
-        self.n_t, self.n_d = len(self.temps), len(self.drives)
-        self.ref = m.drive_ref_
-        self.a = np.concatenate([np.repeat(m.decay_, self.n_t), np.repeat(m.decay_, self.n_d * len(self.powers))])
-        self.b = 1.0 - self.a
-        self.n_taus = n_taus
-        W = m.weights_
-        n_terms = self.n_d * len(self.powers)
-        self.w_temp, self.w_terms = W[:, :self.n_t], W[:, self.n_t:self.n_t + n_terms]
-        self.w_state, self.c = W[:, self.n_t + n_terms:], m.intercept_
-        self.model, self.state = m, None
-        if history is not None and len(history):
-            F = m._features(history)
-            self.state = F[-1, self.n_t + n_terms:].copy()
+        stage = model.features_
+        self.columns = stage.inputs
+        past = None if history is None or not len(history) else history[self.columns].to_numpy(dtype=float)
+        self.stream = stage.stream(past)
+        self.weights, self.intercept = model.weights_, model.intercept_
 
     def update(self, row) -> np.ndarray:
         """Displacement (µm) per target for one new input ``row`` (a mapping column -> value)."""
-        temps = np.array([row[c] for c in self.temps], dtype=float)
-        if self.n_d:
-            drive = np.abs(np.array([row[c] for c in self.drives], dtype=float)) / self.ref
-            terms = np.power.outer(drive, self.powers).T.ravel()  # power-major, as np.hstack over powers
-        else:
-            terms = np.zeros(0)
-        if self.state is None:
-            self.state = self.model._initial_state(temps)
-        u = np.concatenate([np.tile(temps, self.n_taus), np.tile(terms, self.n_taus)])
-        self.state = self.a * self.state + self.b * u
-        return self.w_temp @ temps + self.w_terms @ terms + self.w_state @ self.state + self.c
+        return self.weights @ self.stream.update(np.array([row[c] for c in self.columns], dtype=float)) \
+            + self.intercept
 
 
 @hookimpl

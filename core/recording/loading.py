@@ -1,4 +1,4 @@
-"""Recordings: a table (CSV, Parquet or XLSX) plus a YAML manifest -> channels by role in canonical units.
+"""Loading a table (CSV, Parquet or XLSX) and its YAML manifest into a :class:`Recording`, with validation.
 
 A manifest names the time column and gives every used column a role and a unit::
 
@@ -13,11 +13,7 @@ A manifest names the time column and gives every used column a role and a unit::
 naming the file, the column and the row. Row numbers are those a user sees in a spreadsheet or a text editor:
 the header is row 1, the first data row is row 2. Isolated missing values (at most ``MAX_NAN_RUN`` in a row)
 are interpolated linearly in time (at either end of the table: the nearest value) and noted; longer gaps are
-errors. Columns the manifest does not name are
-ignored with a note in :attr:`Recording.notes`.
-
-Canonical units in :attr:`Recording.data`: temperatures (temperature, ambient, coolant_inlet, coolant_outlet)
-in degC, displacement in um, speed in rpm, cutting_power in W, axis_velocity in mm_min; condition is a label.
+errors. Columns the manifest does not name are ignored with a note in :attr:`Recording.notes`.
 """
 
 from __future__ import annotations
@@ -28,7 +24,7 @@ import math
 import os
 import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -38,10 +34,7 @@ import yaml
 
 from thermodrift.core import limits
 from thermodrift.core.errors import InputError
-
-ROLES = ("speed", "temperature", "displacement", "ambient", "coolant_inlet", "coolant_outlet",
-         "cutting_power", "axis_velocity", "condition", "ignore")
-TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording
 
 # Per role: canonical unit and accepted units as (scale, offset) with canonical = value * scale + offset.
 _TEMPERATURE = ("degC", {"degC": (1.0, 0.0), "°C": (1.0, 0.0), "K": (1.0, -273.15)})
@@ -63,298 +56,6 @@ _SINGLE_ROLES = ("speed", "condition")
 
 MIN_ROWS = 10
 MAX_NAN_RUN = 3  # longest run of missing samples that is interpolated; longer gaps are errors
-TIME_INDEX = "time_s"
-
-# Working-condition detection from the speed schedule.
-_MEDIAN_WINDOW = 5         # samples; removes isolated spikes before levels are found
-_LEVEL_TOL_RPM = 25.0      # two speeds closer than max(this, _LEVEL_TOL_REL * max|speed|) are one level
-_LEVEL_TOL_REL = 0.02
-_MIN_LEVEL_S = 120.0       # shorter level segments (ramps, blips) join the next level
-_MIN_LEVEL_SAMPLES = 3
-_LABEL_STEP_RPM = 10       # labels name the level rounded to this, so noise does not change them
-
-
-@dataclass(frozen=True)
-class Channel:
-    """One column of a recording: its role, its canonical unit (None for labels) and free metadata."""
-
-    name: str
-    role: str
-    unit: str | None
-    meta: dict[str, Any] = field(default_factory=dict)
-
-
-class Recording:
-    """A time series of channels by role, indexed by time in s, in canonical units.
-
-    ``data`` holds exactly the columns named by ``channels``; its index is time in s (float, named
-    ``time_s``) starting where the table starts. ``notes`` records what loading did silently (ignored
-    columns, interpolated samples, irregular sampling).
-    """
-
-    def __init__(self, data: pd.DataFrame, channels: dict[str, Channel], source: str = "<memory>",
-                 notes: Iterable[str] | None = None):
-        missing = [name for name in channels if name not in data.columns]
-        extra = [str(col) for col in data.columns if col not in channels]
-        if missing or extra:
-            raise ValueError(f"data and channels disagree: channels without data {missing}, "
-                             f"data without channel {extra}")
-        for name, ch in channels.items():
-            if ch.name != name:
-                raise ValueError(f"channel {ch.name!r} is filed under the name {name!r}")
-            if ch.role not in ROLES or ch.role == "ignore":
-                raise ValueError(f"channel {name!r} has role {ch.role!r}; use one of {', '.join(ROLES[:-1])}")
-        if TIME_INDEX in channels:
-            raise ValueError(f"{TIME_INDEX!r} is the time index and cannot be a channel name")
-        self.data = data.set_axis(pd.Index(np.asarray(data.index, dtype=float), name=TIME_INDEX), axis=0)
-        self.channels = dict(channels)
-        self.source = source
-        self.notes: list[str] = list(notes or [])
-        self._labels: pd.Series | None = None
-
-    def __len__(self) -> int:
-        return len(self.data)
-
-    def __repr__(self) -> str:
-        roles = ", ".join(f"{len(self.columns(r))} {r}" for r in ROLES if self.columns(r))
-        return f"Recording({len(self)} rows, {self.duration_s / 3600:.2f} h, {roles}, source={self.source!r})"
-
-    @property
-    def time_s(self) -> np.ndarray:
-        """Sample times in s."""
-        return self.data.index.to_numpy()
-
-    @property
-    def duration_s(self) -> float:
-        """Last minus first sample time in s."""
-        t = self.time_s
-        return float(t[-1] - t[0]) if len(t) else 0.0
-
-    @property
-    def sampling_interval_s(self) -> float:
-        """Median sampling interval in s (nan for fewer than two rows)."""
-        return float(np.median(np.diff(self.time_s))) if len(self) > 1 else float("nan")
-
-    @property
-    def is_regular(self) -> bool:
-        """True when every interval is within 1 % of the median interval."""
-        dt = np.diff(self.time_s)
-        return bool(len(dt)) and bool(np.all(np.abs(dt - np.median(dt)) <= 0.01 * np.median(dt)))
-
-    def columns(self, role: str) -> list[str]:
-        """Names of the channels with ``role``, in table order."""
-        if role not in ROLES:
-            raise ValueError(f"unknown role {role!r}; use one of {', '.join(ROLES)}")
-        return [str(c) for c in self.data.columns if self.channels[c].role == role]
-
-    def frame(self, role: str) -> pd.DataFrame:
-        """The channels with ``role`` as a DataFrame indexed by time in s."""
-        return self.data[self.columns(role)]
-
-    @property
-    def temperatures(self) -> pd.DataFrame:
-        """Temperature channels in °C (ambient and coolant are separate roles)."""
-        return self.frame("temperature")
-
-    @property
-    def displacements(self) -> pd.DataFrame:
-        """Displacement (drift) channels in µm."""
-        return self.frame("displacement")
-
-    @property
-    def speed(self) -> pd.Series | None:
-        """Spindle speed in rpm, or None."""
-        cols = self.columns("speed")
-        return self.data[cols[0]] if cols else None
-
-    def conditions(self) -> pd.Series:
-        """Working-condition label per sample: the condition channel, else detected from the speed schedule.
-
-        Detection (:func:`detect_conditions`): a new condition starts at each change to another nonzero speed
-        level; a stop joins the condition before it; leading idle time is ``c00_idle``. Labels look like
-        ``c01_1250rpm``. Without speed or condition channel every sample is ``c01_all``.
-        """
-        if self._labels is None:
-            cond = self.columns("condition")
-            if cond:
-                labels = self.data[cond[0]].astype(str).to_numpy()
-            elif self.speed is not None:
-                labels = detect_conditions(self.time_s, self.speed.to_numpy())
-            else:
-                labels = np.full(len(self), "c01_all", dtype=object)
-            self._labels = pd.Series(labels, index=self.data.index, name="condition", dtype=object)
-        return self._labels
-
-    def condition_spans(self) -> pd.DataFrame:
-        """One row per contiguous run of a condition: ``label``, ``start_s`` and ``end_s`` (half-open).
-
-        ``end_s`` is the start of the next run, or the last time plus one sampling interval.
-        """
-        labels = self.conditions().to_numpy()
-        t = self.time_s
-        if not len(t):
-            return pd.DataFrame({"label": [], "start_s": [], "end_s": []})
-        starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
-        step = self.sampling_interval_s if len(t) > 1 else 0.0
-        ends = np.r_[t[starts[1:]], t[-1] + step]
-        return pd.DataFrame({"label": labels[starts], "start_s": t[starts], "end_s": ends})
-
-    def select(self, rows: Any) -> Recording:
-        """The recording restricted to ``rows`` (boolean mask or positions); condition labels are kept."""
-        mask = np.asarray(rows)
-        if mask.dtype == bool and len(mask) != len(self):
-            raise ValueError(f"boolean mask has {len(mask)} entries for {len(self)} rows")
-        positions = np.flatnonzero(mask) if mask.dtype == bool else mask.astype(int)
-        sub = Recording(self.data.iloc[positions], self.channels, self.source, self.notes)
-        sub._labels = self.conditions().iloc[positions]
-        return sub
-
-    def write(self, table_path: str | os.PathLike, manifest_path: str | os.PathLike) -> None:
-        """Write the table (CSV, Parquet or XLSX by suffix; time column ``time_s``) and its manifest (YAML)."""
-        table = Path(table_path)
-        frame = self.data.reset_index()
-        suffix = table.suffix.lower()
-        if suffix == ".csv":
-            frame.to_csv(table, index=False)
-        elif suffix == ".parquet":
-            frame.to_parquet(table, index=False)
-        elif suffix == ".xlsx":
-            frame.to_excel(table, index=False, sheet_name="data")
-        else:
-            raise InputError(f"cannot write table type {suffix!r}", file=str(table),
-                             hint="use .csv, .parquet or .xlsx")
-        channels = {}
-        for name in self.data.columns:
-            ch = self.channels[name]
-            spec = {"role": ch.role} if ch.unit is None else {"role": ch.role, "unit": ch.unit}
-            channels[str(name)] = {**spec, **ch.meta}
-        manifest = {"time": TIME_INDEX, "channels": channels}
-        text = yaml.safe_dump(manifest, allow_unicode=True, sort_keys=False, default_flow_style=None)
-        Path(manifest_path).write_text(f"# manifest for {table.name}\n{text}", encoding="utf-8")
-
-    def summary(self) -> str:
-        """Multi-line overview: file, rows, duration, sampling, channels by role, working conditions, notes."""
-        lines = [f"file: {self.source}", f"rows: {len(self)}"]
-        t = self.time_s
-        if len(t):
-            lines.append(f"duration: {self.duration_s / 3600:.3f} h ({t[0]:g} s to {t[-1]:g} s)")
-        if len(t) > 1:
-            dt = np.diff(t)
-            regular = "regular" if self.is_regular else f"irregular, {dt.min():g} s to {dt.max():g} s"
-            lines.append(f"sampling interval: {self.sampling_interval_s:g} s ({regular})")
-        lines.append("channels:")
-        for role in ROLES:
-            cols = self.columns(role) if role != "ignore" else []
-            if cols:
-                lines.append(f"  {role} ({len(cols)}):")
-                lines.extend(f"    {self._describe(c)}" for c in cols)
-        source = (f"column {self.columns('condition')[0]!r}" if self.columns("condition")
-                  else f"speed {self.columns('speed')[0]!r}" if self.columns("speed") else "no speed channel")
-        spans = self.condition_spans()
-        lines.append(f"working conditions ({spans['label'].nunique()}, from {source}):")
-        width = max((len(str(s)) for s in spans["label"]), default=0)
-        lines.extend(f"  {row.label:<{width}}  {row.start_s / 3600:8.3f} h to {row.end_s / 3600:8.3f} h"
-                     f"  ({row.start_s:g} s to {row.end_s:g} s)" for row in spans.itertuples())
-        if self.notes:
-            lines.append("notes:")
-            lines.extend(f"  - {note}" for note in self.notes)
-        return "\n".join(lines)
-
-    def _describe(self, name: str) -> str:
-        ch = self.channels[name]
-        meta = "".join(f", {k}={v}" for k, v in ch.meta.items())
-        if ch.unit is None:
-            values = self.data[name]
-            return f"{name}: {values.nunique()} labels{meta}"
-        values = self.data[name].to_numpy()
-        return f"{name} [{ch.unit}]: {values.min():.4g} to {values.max():.4g}{meta}"
-
-
-def speed_segments(time_s: np.ndarray, speed_rpm: np.ndarray) -> list[tuple[int, int, float]]:
-    """Constant-speed stretches ``(start, stop, level rpm)`` (half-open sample ranges) of a speed schedule.
-
-    The project's one speed segmenter (conditions, mismatch windows and calibration start values use it): the
-    speed is median-filtered (``_MEDIAN_WINDOW`` samples) and cut into levels that differ by more than
-    max(25 rpm, 2 % of the top speed); levels shorter than 120 s (ramps, blips) join the next level, and
-    adjacent stretches at the same level are one. The level is the filtered speed's median over the stretch.
-    """
-    t = np.asarray(time_s, dtype=float)
-    v = _median_filter(np.asarray(speed_rpm, dtype=float), _MEDIAN_WINDOW)
-    n = len(v)
-    if n == 0:
-        return []
-    tol = max(_LEVEL_TOL_RPM, _LEVEL_TOL_REL * float(np.abs(v).max()))
-    dt = float(np.median(np.diff(t))) if n > 1 else 1.0
-    min_len = max(_MIN_LEVEL_SAMPLES, int(math.ceil(_MIN_LEVEL_S / dt))) if dt > 0 else _MIN_LEVEL_SAMPLES
-    merged: list[list] = []
-    for a, b in _merge_short(_level_starts(v, tol), n, min_len):
-        level = float(np.median(v[a:b]))
-        if merged and abs(level - merged[-1][2]) <= tol:
-            merged[-1][1] = b
-            merged[-1][2] = float(np.median(v[merged[-1][0]:b]))
-        else:
-            merged.append([a, b, level])
-    return [(int(a), int(b), float(level)) for a, b, level in merged]
-
-
-def detect_conditions(time_s: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
-    """Working-condition labels (object array) from a piecewise-constant speed schedule in rpm.
-
-    Levels come from :func:`speed_segments`. A new condition starts at each change to another nonzero level; a
-    stop joins the condition before it; a restart at the same level continues it; leading idle time is
-    ``c00_idle``. Labels name the level rounded to 10 rpm.
-    """
-    v = np.asarray(speed_rpm, dtype=float)
-    labels = np.empty(len(v), dtype=object)
-    if not len(v):
-        return labels
-    tol = max(_LEVEL_TOL_RPM, _LEVEL_TOL_REL * float(np.abs(_median_filter(v, _MEDIAN_WINDOW)).max()))
-    current, level, k = "c00_idle", None, 0
-    for a, b, seg_level in speed_segments(time_s, v):
-        if abs(seg_level) > tol and (level is None or abs(seg_level - level) > tol):
-            k, level = k + 1, seg_level
-            current = f"c{k:02d}_{_LABEL_STEP_RPM * round(seg_level / _LABEL_STEP_RPM)}rpm"
-        labels[a:b] = current
-    return labels
-
-
-def _median_filter(x: np.ndarray, window: int) -> np.ndarray:
-    if len(x) < window:
-        return x.copy()
-    half = window // 2
-    padded = np.pad(x, half, mode="edge")
-    return np.median(np.lib.stride_tricks.sliding_window_view(padded, window), axis=1)
-
-
-def _level_starts(v: np.ndarray, tol: float) -> list[int]:
-    """Indices where the speed leaves the current level by more than ``tol``."""
-    starts, ref = [0], v[0]
-    for i, x in enumerate(v.tolist()):
-        if abs(x - ref) > tol:
-            starts.append(i)
-            ref = x
-    return starts
-
-
-def _merge_short(starts: list[int], n: int, min_len: int) -> list[tuple[int, int]]:
-    """Segments [a, b); a segment shorter than ``min_len`` joins the next one (the last joins the previous)."""
-    bounds = list(zip(starts, starts[1:] + [n]))
-    out: list[tuple[int, int]] = []
-    pending: int | None = None
-    for i, (a, b) in enumerate(bounds):
-        start = a if pending is None else pending
-        if b - a < min_len and i < len(bounds) - 1:
-            pending = start
-            continue
-        pending = None
-        if b - a < min_len and out:
-            out[-1] = (out[-1][0], b)
-        else:
-            out.append((start, b))
-    return out
-
-
-# ---------------------------------------------------------------------------------------------- loading
 
 
 @dataclass
