@@ -1,10 +1,10 @@
 """Adequacy first: the auto baseline's structure chosen on a held-out block, and how adequate the result is.
 
 Before mechanisms compete to explain the residual, the structural misfit the baseline itself can shed is shed:
-the ``auto`` network is calibrated on the screening rows before the inner validation block with each number of
+the ``auto`` network is calibrated on the screening rows before the inner validation block with each set of
 hidden nodes in :data:`HIDDEN_OPTIONS` (unmeasured heat paths that act on the displacements only, each adding
-a time constant to the expansion map) and the count that predicts the validation block best (noise-weighted,
-temperature and displacement channels balanced) is kept; a larger count must beat the smaller by
+a time constant to the expansion map) and the set that predicts the validation block best (noise-weighted,
+temperature and displacement channels balanced) is kept; a larger set must beat a smaller one by
 :data:`MIN_GAIN` of its held-out error. Links to the coolant or extra ambient paths are mechanisms the finder
 tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to find. The
 search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
@@ -23,7 +23,9 @@ import numpy as np
 
 from thermodrift.core.physics.calibration import calibrate
 
-HIDDEN_OPTIONS = (1, 2, 4)
+# Hidden nodes by their start time constants (h): the auto network's default pair, one more with a fast path
+# (minutes: heat that reaches the structure quicker than any surface sensor shows it) and a finer spread.
+HIDDEN_OPTIONS = ((0.5, 4.0), (0.1, 0.7, 4.0), (0.1, 0.5, 1.5, 4.0))
 MIN_GAIN = 0.05
 STRUCTURAL_RATIO = 2.0  # fitted drift error over this many noise σ: misfit beyond noise (structural)
 
@@ -38,8 +40,8 @@ def _balanced_error(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarra
 
 
 def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario, evaluations: int,
-                  baseline_of) -> tuple[int, list[dict[str, Any]]]:
-    """The hidden-node count of the auto baseline that predicts ``val_rows`` best when calibrated on
+                  baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]]]:
+    """The hidden nodes (start time constants, h) of the auto baseline that predicts ``val_rows`` best when calibrated on
     ``inner_rows`` (indices into ``recording``), and the table of every count tried (held-out error in noise
     units). ``baseline_of`` is the screening's linear refit (:func:`.screening.baseline_of`)."""
     inner_rec = recording.select(np.isin(np.arange(len(recording)), inner_rows))
@@ -54,7 +56,7 @@ def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scena
         readings = baseline_of(cal.network, scenario, channels, measured, inner_rows, sigma).readings
         err = _balanced_error(measured, readings, sigma, kinds, val_rows)
         fit_err = _balanced_error(measured, readings, sigma, kinds, inner_rows)
-        table.append({"hidden_nodes": h, "heldout_error": round(err, 4), "fitted_error": round(fit_err, 4)})
+        table.append({"hidden_nodes": len(h), "time_constants_h": list(h), "heldout_error": round(err, 4), "fitted_error": round(fit_err, 4)})
         if best is None or err < (1 - MIN_GAIN) * best[1]:
             best = (h, err)
     return best[0], table

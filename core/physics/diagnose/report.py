@@ -164,7 +164,8 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
         if a.get("hidden_nodes"):
             lines += ["", "Hidden nodes of the auto network, chosen on the inner validation block (balanced "
                       "noise-weighted mean squared error): " + "; ".join(
-                          f"{h['hidden_nodes']}: fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
+                          f"{h['hidden_nodes']} (start τ {', '.join(f'{x:g}' for x in h['time_constants_h'])} h): "
+                          f"fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
                           for h in a["hidden_nodes"]) + "."]
     lines += ["", "## Findings", ""]
     if not d.findings:
