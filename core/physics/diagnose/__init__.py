@@ -224,7 +224,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "baseline_block_spread": spread} for f, d in zip(fitted, discovered)]
+            "baseline_block_spread": spread, "baseline_block_spread_robust": _block_spread(
+                measured, base.readings, sigma, weights, rows, blocks, val_rows, robust=True)}
+            for f, d in zip(fitted, discovered)]
         passing = [f for f, d in zip(fitted, discovered) if d and f.dsse_bal > 0 and f.candidate.cv_gain > 0
                    and f.candidate.cv_wins >= 0.5 and not f.outside and _validates(f, spread, len(val_rows))]
         if not passing:
@@ -263,18 +265,20 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                      scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
 
 
-def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows) -> float:
+def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows, robust: bool = False) -> float:
     """Standard error of the baseline's mean balanced squared error (noise units, per sample) over one held-out
     block as large as the validation block: the spread of its per-block means over the condition blocks of the
-    screening rows (1.4826 × their median absolute deviation: blocks where a missing effect acts strongly are
-    a minority it ignores), over √(blocks in the validation block)."""
+    screening rows (their standard deviation; ``robust``: 1.4826 × their median absolute deviation), over
+    √(blocks in the validation block)."""
     sq = (((measured - readings) / sigma)[rows]) ** 2 @ weights
     nb = int(blocks.max()) + 1
     counts = np.bincount(blocks, minlength=nb)
     means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
     k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
-    mad = 1.4826 * float(np.median(np.abs(means - np.median(means)))) if len(means) > 1 else 0.0
-    return mad / float(np.sqrt(k))
+    if len(means) < 2:
+        return 0.0
+    sd = 1.4826 * float(np.median(np.abs(means - np.median(means)))) if robust else float(np.std(means, ddof=1))
+    return sd / float(np.sqrt(k))
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
