@@ -211,7 +211,8 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        spread = _block_spread(measured, base.readings, sigma, weights, rows, blocks, val_rows)
+        for f in fitted:  # how much the error the candidate leaves varies from block to block
+            f.spread = _block_spread(measured, f.readings, sigma, weights, rows, blocks, val_rows)
         # Benjamini–Hochberg over every candidate screened this round: the fitted ones with their re-simulated
         # whitened likelihood ratio, the others with their screening one
         fitted_ids = {id(f.candidate) for f in fitted}
@@ -224,15 +225,13 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "baseline_block_spread": spread, "baseline_block_spread_robust": _block_spread(
-                measured, base.readings, sigma, weights, rows, blocks, val_rows, robust=True)}
-            for f, d in zip(fitted, discovered)]
+            "remaining_block_spread": f.spread} for f, d in zip(fitted, discovered)]
         passing = [f for f, d in zip(fitted, discovered) if d and f.dsse_bal > 0 and f.candidate.cv_gain > 0
-                   and f.candidate.cv_wins >= 0.5 and not f.outside and _validates(f, spread, len(val_rows))]
+                   and f.candidate.cv_wins >= 0.5 and not f.outside and _validates(f, len(val_rows))]
         if not passing:
             for f, d in zip(fitted, discovered):
                 rejected.append({"mechanism": f.candidate.mechanism,
-                                 "reason": _why_not(f, d, level, m, spread, len(val_rows))})
+                                 "reason": _why_not(f, d, level, m, len(val_rows))})
             break
         win = selection.parsimonious(passing, level)
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
@@ -248,7 +247,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                        f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
         for f, d in zip(fitted, discovered):
             if f is not win and f not in rivals and f.candidate is not win.candidate:
-                reason = (_why_not(f, d, level, m, spread, len(val_rows)) if f not in passing else
+                reason = (_why_not(f, d, level, m, len(val_rows)) if f not in passing else
                           f"explains less than {win.candidate.mechanism} "
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
@@ -265,20 +264,16 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                      scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
 
 
-def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows, robust: bool = False) -> float:
-    """Standard error of the baseline's mean balanced squared error (noise units, per sample) over one held-out
-    block as large as the validation block: the spread of its per-block means over the condition blocks of the
-    screening rows (their standard deviation; ``robust``: 1.4826 × their median absolute deviation), over
-    √(blocks in the validation block)."""
+def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows) -> float:
+    """Standard error of a model's mean balanced squared error (noise units, per sample) over one held-out block
+    as large as the validation block: the standard deviation of its per-block means over the condition blocks
+    of the screening rows, over √(blocks in the validation block)."""
     sq = (((measured - readings) / sigma)[rows]) ** 2 @ weights
     nb = int(blocks.max()) + 1
     counts = np.bincount(blocks, minlength=nb)
     means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
     k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
-    if len(means) < 2:
-        return 0.0
-    sd = 1.4826 * float(np.median(np.abs(means - np.median(means)))) if robust else float(np.std(means, ddof=1))
-    return sd / float(np.sqrt(k))
+    return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
@@ -290,16 +285,17 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
     return out
 
 
-def _validates(f, spread: float, n_val: int) -> bool:
-    """The fit made without the inner validation block predicts it better (balanced) by more than the
-    baseline's own held-out error varies from block to block (``spread``, per sample: :func:`_block_spread`),
-    and its drift is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
+def _validates(f, n_val: int, gate: bool = True) -> bool:
+    """The fit made without the inner validation block predicts it better (balanced) by more, per sample, than
+    the error it leaves varies from block to block (``f.spread``: :func:`_block_spread`; the structural misfit
+    no candidate explains sets the scale, in the machine's own units; not with ``gate`` False), and its drift is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
     the noise floor the sum of squares of n values varies by √(2n) noise units)."""
     slack = max(VAL_DRIFT_SLACK * f.val_disp0, VAL_DRIFT_Z * np.sqrt(2.0 * f.val_disp_n))
+    spread = f.spread if gate else 0.0
     return f.val_bal > spread * max(n_val, 1) and f.val_bal > 0 and not f.val_disp < -slack
 
 
-def _why_not(f, discovered: bool, level: float, m: int, spread: float, n_val: int) -> str:
+def _why_not(f, discovered: bool, level: float, m: int, n_val: int) -> str:
     c = f.candidate
     if f.dsse <= 0 or f.dsse_bal <= 0:
         return "re-simulated fit does not lower the (whitened) misfit"
@@ -310,10 +306,10 @@ def _why_not(f, discovered: bool, level: float, m: int, spread: float, n_val: in
         return "fits only with unphysical values: " + "; ".join(f.outside)
     if c.cv_gain <= 0 or c.cv_wins < 0.5:
         return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
-    if f.val_bal > 0 and f.val_bal <= spread * max(n_val, 1) and _validates(f, 0.0, n_val):
+    if _validates(f, n_val, gate=False):
         return ("fitted without the last part of the fitted data, it predicts that part better than the baseline "
-                f"by {f.val_bal / max(n_val, 1):.3g} per sample (noise units), within the {spread:.3g} by which the "
-                "baseline's own held-out error varies from block to block")
+                f"by {f.val_bal / max(n_val, 1):.3g} per sample (noise units), within the {f.spread:.3g} by which "
+                "the error it leaves varies from block to block: structural misfit, not this mechanism")
     return ("fitted without the last part of the fitted data, it does not predict that part better than the "
             f"baseline (noise-weighted gain {f.val_bal:.3g}; on the drift channels {f.val_disp:.3g} of "
             f"{f.val_disp0:.3g})")

@@ -83,6 +83,7 @@ class Fitted:
     val_disp_n: int = 0              # the number of displacement values it sums
     declared: list = field(default_factory=list)  # (FreeParam, start) of every parameter the mechanism declares
     fixed: dict[str, float] = field(default_factory=dict)  # parameters the data cannot identify, held at a value
+    spread: float = 0.0  # standard error of its held-out block error (noise units per sample), set by the finder
 
 
 def _declared(cand: Candidate, base: Network,
