@@ -4,24 +4,32 @@ Pipeline (:func:`diagnose`)::
 
     final block   the last ~20 % of the recording (cut at a condition boundary) is kept out of everything
                   below and only scores the result (``heldout_rmse_um``)
-    baseline      calibrate the network (``auto`` without its prior, or a spec with its parameters fixed and
-                  only the linear offsets and sensitivities solved) on the rest
-    screen        every registered mechanism × place × shape: regress the residual on its re-simulated,
-                  linearised response (:mod:`.screening`); mechanisms whose drivers are missing or constant
-                  are skipped with that reason
+    baseline      calibrate the network (``auto`` without its prior, its hidden nodes chosen first on the inner
+                  validation block, :mod:`.adequacy`; or a spec with its parameters fixed and only the linear
+                  offsets and sensitivities solved) on the rest; say how adequate it is (misfit against noise,
+                  residual correlation, validation against fitted error)
+    noise model   per channel an AR model of the baseline's own residual (:mod:`.noise`): residuals and
+                  responses are whitened with it, so structural misfit the AR model describes counts as noise
+    screen        every registered mechanism × place × shape: regress the whitened residual on its re-simulated,
+                  linearised, whitened response (:mod:`.screening`); mechanisms whose drivers are missing or
+                  constant are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
-    accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
-                  screened candidates), its fitted parameters lie within their physical bounds, it explains
-                  at least 5 % of the baseline's misfit (a margin for model error the white-noise test does
-                  not see), its condition-blocked cross-validated gain is positive in at least half the
-                  blocks, and, fitted again without the inner validation block (the last ~20 % of the
-                  screening rows, cut at a condition boundary), it predicts that block better than the
-                  baseline refitted alike (balanced gain > 0) and its drift no worse than 10 % or than
-                  3 standard deviations of noise (noise-weighted sum of squares of the displacement
-                  channels); then screen again on the augmented network (forward selection) until nothing passes
+    accept        the best fitted one if its whitened likelihood ratio is a discovery by Benjamini–Hochberg over
+                  the round's screened candidates at the round's level (α/2, α/4, … over rounds: the
+                  false-discovery level stays below α in all), its fitted parameters lie within their physical
+                  bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
+                  and, fitted again without the inner validation block (the last ~20 % of the screening rows,
+                  cut at a condition boundary), it predicts that block better than the baseline refitted alike
+                  by more per sample than the error it leaves varies from block to block (standard error over
+                  the condition blocks: the scale of the structural misfit on this machine, in its own units)
+                  and its drift no worse than 10 % or than 3 standard deviations of noise (noise-weighted sum
+                  of squares of the displacement channels); then screen again on the augmented network (forward
+                  selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
-                  intervals from the re-simulation fit
+                  intervals from the re-simulation fit; a parameter whose interval is not finite, misses its
+                  value or is too wide to identify it is held at its fitted value, left out of the
+                  parameters and named in the evidence (:func:`.selection.identified`)
     equivalence   of the passing candidates within 5 % of the best gain that the data cannot tell apart from
                   it, the most parsimonious is named (:func:`.selection.parsimonious`); a rival mechanism
                   fitting within 5 % of the named one's gain: "not identifiable from this data", with the

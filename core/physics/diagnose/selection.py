@@ -39,7 +39,8 @@ from scipy import stats
 
 from thermodrift.core.physics.calibration import UNIDENTIFIABLE_RATIO, FreeParameter, calibrate
 from thermodrift.core.physics.diagnose.noise import NoiseModel
-from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, Screen, _place_text, baseline_of, restricted
+from thermodrift.core.physics.diagnose.screening import (SHAPES, Candidate, Screen, _basis_of, _place_text, baseline_of,
+                                                        restricted)
 from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
 
@@ -181,16 +182,29 @@ def _free_parameters(searched: list[tuple[FreeParam, float]]) -> list[FreeParame
     return free
 
 
-def _squares(resid: np.ndarray, noise: NoiseModel | None) -> np.ndarray:
-    """Squared residuals (rows, channels) in noise units, whitened per channel by ``noise``."""
+def _squares(resid: np.ndarray, noise: NoiseModel | None, nuisance: list[np.ndarray] | None = None,
+             rows: np.ndarray | None = None) -> np.ndarray:
+    """Squared residuals (rows, channels) in noise units, whitened per channel by ``noise``; with the
+    ``nuisance`` regressors of the model (per channel, all samples) their whitened span is projected out, so
+    that the linear parameters count as fitted by generalised least squares under that noise model, as in the
+    screening (the readings solve them by ordinary least squares, which can leave steps the whitening
+    magnifies)."""
     if noise is None:
         return resid ** 2
-    return np.column_stack([noise.apply(c, resid[:, c]) for c in range(resid.shape[1])]) ** 2
+    out = []
+    for c in range(resid.shape[1]):
+        w = noise.apply(c, resid[:, c])
+        if nuisance is not None:
+            Q = _basis_of(noise.apply(c, nuisance[c][rows]))
+            w = w - Q @ (Q.T @ w)
+        out.append(w)
+    return np.column_stack(out) ** 2
 
 
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
          max_evaluations, level, intervals: bool, noise: NoiseModel | None = None) -> Fitted:
-    d0 = _squares(((measured - base_readings) / sigma)[rows], noise)
+    base_nuisance = baseline_of(base, scenario, channels, measured, rows, sigma).nuisance if noise else None
+    d0 = _squares(((measured - base_readings) / sigma)[rows], noise, base_nuisance, rows)
     best = None
     for start in (_declared(cand, base), _declared(cand, base, scale_held=True)):
         if start is None:
@@ -202,8 +216,9 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
         for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
             res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
                             level=level, max_evaluations=max_evaluations)
-            readings = baseline_of(res.network, scenario, channels, measured, rows, sigma).readings
-            d1 = _squares(((measured - readings) / sigma)[rows], noise)
+            refit = baseline_of(res.network, scenario, channels, measured, rows, sigma)
+            readings = refit.readings
+            d1 = _squares(((measured - readings) / sigma)[rows], noise, refit.nuisance, rows)
             dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
             if best is None or dsse_bal > best[3]:
                 best = (res, readings, d1, dsse_bal, declared)
