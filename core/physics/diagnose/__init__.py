@@ -41,6 +41,7 @@ checks read), ``report.md``, figures, the residual series and an optional MLflow
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -51,7 +52,7 @@ import pandas as pd
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import adequacy, screening, selection
-from thermodrift.core.physics.diagnose.noise import benjamini_hochberg, round_level
+from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import DriverWindow, condition_blocks, driver_windows
 from thermodrift.core.physics.network import Network
@@ -60,6 +61,7 @@ from thermodrift.core.physics.scenarios import Scenario
 MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
+PLAIN_TOP = 2       # besides the ``top`` by the whitened screening, the best this many by the plain one are fitted
 VAL_DRIFT_SLACK = 0.10  # ... and leaves the inner validation block's drift at most this much worse, or within
 VAL_DRIFT_Z = 3.0       # this many standard deviations of a noise-only sum of squares (χ², 2n variance)
 
@@ -199,6 +201,17 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             singles.setdefault(c.mechanism, []).append(c)
         per_mech = [screening.best_compound(screen, v) for v in singles.values()]
         ranked = sorted([c for c in per_mech if c.dsse_bal > 0], key=lambda c: -c.dsse_bal)[:top]
+        # whitening favours fast signatures; the mechanism explaining most of the plain (unwhitened) residual is
+        # fitted too, so that a slow one (a lagged ambient, a chiller) is judged by the same tests
+        plain = screening.prepare(base, measured, sigma, kinds, channels, rows, blocks,
+                                  noise=NoiseModel.white(len(channels)))
+        by_plain = sorted(((screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
+                                                              for c in v]).dsse_bal, mid)
+                           for mid, v in singles.items()), reverse=True)
+        have = {c.mechanism for c in ranked}
+        extra = [c for gain, mid in by_plain[:PLAIN_TOP] for c in per_mech
+                 if c.mechanism == mid and mid not in have and gain > 0 and c.dsse_bal > 0]
+        ranked += extra
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w

@@ -73,6 +73,14 @@ class NoiseModel:
         self.coefficients = [a for a, _ in fits]
         self.innovation = np.array([s for _, s in fits])
 
+    @classmethod
+    def white(cls, channels: int) -> NoiseModel:
+        """White noise of unit spread in every channel (no whitening: the plain noise-weighted metric)."""
+        model = cls(np.zeros((0, channels)))
+        model.coefficients = [np.zeros(0)] * channels
+        model.innovation = np.ones(channels)
+        return model
+
     def apply(self, c: int, x: np.ndarray) -> np.ndarray:
         return whiten(x, self.coefficients[c]) / self.innovation[c]
 
