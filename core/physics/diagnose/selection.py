@@ -290,22 +290,30 @@ def trustworthy(value: float, interval: list[float] | None, fp: FreeParam) -> bo
     return not (fp.scale == "log" and lo > 0 and hi / lo >= UNIDENTIFIABLE_RATIO) and not (fp.scale == "log" and lo <= 0)
 
 
+def _intervals(network: Network, fit_recording, searched: list[tuple[FreeParam, float]],
+               level: float) -> dict[str, list[float] | None]:
+    """Intervals of the ``searched`` parameters at their values in ``network`` (the others held), from the
+    calibration's Jacobian there (one evaluation, no search)."""
+    res = calibrate(fit_recording, network, free=_free_parameters(searched), intervals=True, level=level,
+                    max_evaluations=1)
+    return _values_and_intervals(res, searched)[1]
+
+
 def identified(win: Fitted, fit_recording, max_evaluations: int, level: float = 0.95) -> Fitted:
     """``win`` with the parameters the data cannot identify (:func:`trustworthy` fails) fixed at their fitted
     value and left out of ``parameters`` and ``ci`` (named in ``fixed``); the intervals of the others are
     recomputed with those held (the network, its readings and the statistics stay as fitted)."""
     by_name = {fp.name: fp for fp, _ in win.declared}
-    bad = {k for k, v in win.parameters.items() if not trustworthy(v, win.ci.get(k), by_name[k])}
-    if not bad:
-        return win
-    keep = [(fp, win.parameters[fp.name]) for fp, _ in win.declared
-            if fp.name not in bad and fp.scale in ("log", "linear")]
     params, ci = dict(win.parameters), dict(win.ci)
+    searched = [(fp, params[fp.name]) for fp, _ in win.declared if fp.scale in ("log", "linear")]
+    if any(ci.get(fp.name) is None for fp, _ in searched):  # kept from its start, the fit has no intervals yet
+        ci.update(_intervals(win.network, fit_recording, searched, level))
+    bad = {k for k, v in params.items() if not trustworthy(v, ci.get(k), by_name[k])}
+    if not bad:
+        return dataclasses.replace(win, ci=ci)
+    keep = [(fp, v) for fp, v in searched if fp.name not in bad]
     if keep:
-        res = calibrate(fit_recording, win.network, free=_free_parameters(keep), intervals=True, level=level,
-                        max_evaluations=1)
-        _, ci_ = _values_and_intervals(res, keep)
-        ci.update(ci_)
+        ci.update(_intervals(win.network, fit_recording, keep, level))
     for _ in range(2):  # a parameter whose interval is still untrustworthy with the others held joins them
         bad |= {k for k in params if k not in bad and not trustworthy(params[k], ci.get(k), by_name[k])}
     return dataclasses.replace(win, parameters={k: v for k, v in params.items() if k not in bad},
