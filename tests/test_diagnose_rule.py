@@ -94,7 +94,8 @@ def _fp(name: str, low: float, high: float, scale: str = "log") -> FreeParam:
     return FreeParam(name, (f"sources.x.{name}",), 1.0, low, high, "1", scale=scale)
 
 
-def _bearing_win(parameters: dict, ci: dict, fixed: dict | None = None, shift_scale: str = "linear") -> selection.Fitted:
+def _bearing_win(parameters: dict, ci: dict, fixed: dict | None = None,
+                 shift_scale: str = "linear") -> selection.Fitted:
     cand = screening.Candidate("bearing_heat_law", {"node": "spindle"}, {"exponent_shift": 0.0,
                                "viscosity_coeff_per_K": 0.01}, None, [], np.zeros((1, 1)),
                                label="bearing_heat_law at node=spindle (exponent_shift=0, viscosity_coeff_per_K=0.01)")

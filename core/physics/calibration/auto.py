@@ -127,8 +127,8 @@ def auto_network(recording, hidden_nodes: int | tuple[float, ...] = 2, capacity_
     nodes start with time constants log-spaced over 0.5–4 h. Node groups are guesses for the mechanism library:
     temperature nodes rising ≥ 50 % of the largest rise are ``bearing``, ≥ 10 % ``housing``, else ``structure``;
     hidden nodes are ``shaft``. ``hidden_nodes`` may instead give the hidden nodes' start time constants (h), one
-    per node (the missing-physics finder chooses them on held-out data). ``grouped``: the conductances of the temperature nodes of one group share one
-    free factor on their step-response starts (``G[bearing]×`` …; a parameterisation the data can identify
+    per node (the missing-physics finder chooses them on held-out data). ``grouped``: the conductances of the
+    temperature nodes of one group share one free factor on their step-response starts (``G[bearing]×`` …; a parameterisation the data can identify
     where one conductance per node is not), hidden nodes keep one conductance each.
     """
     speed = recording.speed

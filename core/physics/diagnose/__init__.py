@@ -309,7 +309,8 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
 def _validates(f, n_val: int, gate: bool = True) -> bool:
     """The fit made without the inner validation block predicts it better (balanced) by more, per sample, than
     the error it leaves varies from block to block (``f.spread``: :func:`_block_spread`; the structural misfit
-    no candidate explains sets the scale, in the machine's own units; not with ``gate`` False), and its drift is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
+    no candidate explains sets the scale, in the machine's own units; not with ``gate`` False), and its drift
+    is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
     the noise floor the sum of squares of n values varies by √(2n) noise units)."""
     slack = max(VAL_DRIFT_SLACK * f.val_disp0, VAL_DRIFT_Z * np.sqrt(2.0 * f.val_disp_n))
     spread = f.spread if gate else 0.0

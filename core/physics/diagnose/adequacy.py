@@ -41,9 +41,9 @@ def _balanced_error(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarra
 
 def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario, evaluations: int,
                   baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]]]:
-    """The hidden nodes (start time constants, h) of the auto baseline that predicts ``val_rows`` best when calibrated on
-    ``inner_rows`` (indices into ``recording``), and the table of every count tried (held-out error in noise
-    units). ``baseline_of`` is the screening's linear refit (:func:`.screening.baseline_of`)."""
+    """The hidden nodes (start time constants, h) of the auto baseline that predicts ``val_rows`` best when
+    calibrated on ``inner_rows`` (indices into ``recording``), and the table of every set tried (held-out error
+    in noise units). ``baseline_of`` is the screening's linear refit (:func:`.screening.baseline_of`)."""
     inner_rec = recording.select(np.isin(np.arange(len(recording)), inner_rows))
     table, best = [], None
     for h in HIDDEN_OPTIONS:
@@ -56,7 +56,8 @@ def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scena
         readings = baseline_of(cal.network, scenario, channels, measured, inner_rows, sigma).readings
         err = _balanced_error(measured, readings, sigma, kinds, val_rows)
         fit_err = _balanced_error(measured, readings, sigma, kinds, inner_rows)
-        table.append({"hidden_nodes": len(h), "time_constants_h": list(h), "heldout_error": round(err, 4), "fitted_error": round(fit_err, 4)})
+        table.append({"hidden_nodes": len(h), "time_constants_h": list(h), "heldout_error": round(err, 4),
+                      "fitted_error": round(fit_err, 4)})
         if best is None or err < (1 - MIN_GAIN) * best[1]:
             best = (h, err)
     return best[0], table

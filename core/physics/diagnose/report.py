@@ -160,7 +160,8 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                   "validation / fitted | residual AR sum |", "|---|---:|---:|---:|---:|---:|---:|"]
         for c, v in a["channels"].items():
             lines.append(f"| {c} | {v['rmse_um']:.3g} | {v['noise_um']:.3g} | {v['misfit_over_noise']:.3g} | "
-                         f"{v['validation_rmse_um']:.3g} | {v['validation_over_fitted']} | {v['residual_ar_sum']:.3g} |")
+                         f"{v['validation_rmse_um']:.3g} | {v['validation_over_fitted']} | "
+                         f"{v['residual_ar_sum']:.3g} |")
         if a.get("hidden_nodes"):
             lines += ["", "Hidden nodes of the auto network, chosen on the inner validation block (balanced "
                       "noise-weighted mean squared error): " + "; ".join(
@@ -185,7 +186,8 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
     lines += ["## Candidates fitted by re-simulation", "",
               "Share of the baseline's (balanced, whitened) misfit explained by the linearised screening and by the "
               "re-simulated fit; LR: drop of the whitened sum of squares (noise model from the baseline's own "
-              "residual); discovery: Benjamini–Hochberg at the round's false-discovery level; blocks: share of condition blocks "
+              "residual); discovery: Benjamini–Hochberg at the round's false-discovery level; blocks: share of "
+              "condition blocks "
               "the linearised screening predicts better when left out; validation: drop of the balanced "
               "(drift channels alone) noise-weighted sum of squares on the inner validation block, fitted "
               "without it (> 0: better than the baseline).", "",

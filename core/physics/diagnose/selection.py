@@ -287,7 +287,7 @@ def trustworthy(value: float, interval: list[float] | None, fp: FreeParam) -> bo
     slack = 1e-9 * max(abs(value), 1e-300)
     if not lo - slack <= value <= hi + slack or hi - lo >= abs(fp.high - fp.low):
         return False
-    return not (fp.scale == "log" and lo > 0 and hi / lo >= UNIDENTIFIABLE_RATIO) and not (fp.scale == "log" and lo <= 0)
+    return fp.scale != "log" or (lo > 0 and hi / lo < UNIDENTIFIABLE_RATIO)
 
 
 def _intervals(network: Network, fit_recording, searched: list[tuple[FreeParam, float]],
