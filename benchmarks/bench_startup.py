@@ -6,8 +6,10 @@ share one run, so the ratios hold on a busy machine too. ``registry.default()`` 
 ``thermodrift run --help`` adds the shipped YAML files and ``conf/config.yaml`` (its target: under 3 s on an
 idle machine, without importing Hydra, MLflow or torch); it reads the component names from the listing that
 the last full load saved (``registry.listing()``), and the row "no saved listing" shows it without
-(``THERMODRIFT_NO_CACHE=1``: the first call after installing or changing a plugin). The last column names the heavy modules the process
-ended up importing; the first line the machine's load average, since a busy machine stretches every row.
+(``THERMODRIFT_NO_CACHE=1``: the first call after installing or changing a plugin). A misspelt group option or
+key (``run model=mrl``, ``run n_trial=5``) is answered from the same listing before any plugin is imported, so
+its rows match the ``--help`` row. The last column names the heavy modules the process ended up importing; the
+first line the machine's load average, since a busy machine stretches every row.
 
     python benchmarks/bench_startup.py            # or: thermodrift bench startup
     python benchmarks/bench_startup.py --repeats 10
@@ -31,6 +33,8 @@ COMMANDS = {
     "registry.default()": "from thermodrift.core import registry; registry.default()",
     "thermodrift plugins": "from thermodrift.core.cli import main; main(['plugins'])",
     "thermodrift run --help": "from thermodrift.core.cli import main; main(['run', '--help'])",
+    "thermodrift run model=mrl (misspelt option)": "from thermodrift.core.cli import main; main(['run', 'model=mrl'])",
+    "thermodrift run n_trial=5 (misspelt key)": "from thermodrift.core.cli import main; main(['run', 'n_trial=5'])",
     "thermodrift run --help, no saved listing": "import os; os.environ['THERMODRIFT_NO_CACHE'] = '1'; "
                                                 "from thermodrift.core.cli import main; main(['run', '--help'])",
     "import torch": "import torch",

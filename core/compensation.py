@@ -9,6 +9,8 @@ A CNC applies a temperature-compensation table per axis: ΔK(P) = K0(T) + tan β
 the reference position P0 and the slope along the axis, both functions of the machine's thermal state T.
 :func:`cnc_table` builds it from a trained model's predictions at two or more positions along an axis (one
 displacement channel per position): per row a least-squares line through the predicted errors over position.
+``thermodrift compensate`` writes the same line per update in a controller's own units
+(:mod:`thermodrift.compensator.cnc`).
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from thermodrift.compensator.cnc import axis_line
 
 CNC_NOTE = ("# CNC temperature-compensation table. Per row (thermal state, indexed by the key temperature "
             "in degC and the time in s): offset K0_um at the reference position P0 and slope tan_beta_um_per_mm "
@@ -51,15 +55,7 @@ def cnc_table(y_pred: np.ndarray, positions_mm: list[float], reference_mm: float
     With one position the slope is undefined (NaN) and K0 is the prediction itself.
     """
     pred = np.asarray(y_pred, dtype=float).reshape(len(key_temperature), -1)
-    p = np.asarray(positions_mm, dtype=float) - reference_mm
-    if pred.shape[1] != len(p):
-        raise ValueError(f"{pred.shape[1]} predicted channels for {len(p)} positions")
-    if len(p) >= 2:
-        A = np.column_stack([np.ones_like(p), p])
-        coef, *_ = np.linalg.lstsq(A, pred.T, rcond=None)  # (2, n): K0, tan β per row
-        k0, slope = coef[0], coef[1]
-    else:
-        k0, slope = pred[:, 0], np.full(len(pred), np.nan)
+    k0, slope = axis_line(pred, positions_mm, reference_mm)  # the one line fit, shared with the compensator
     return pd.DataFrame({"time_s": np.asarray(key_temperature.index, dtype=float),
                          f"{key_temperature.name}_degC": key_temperature.to_numpy(dtype=float),
                          "axis": axis, "P0_mm": reference_mm, "K0_um": k0, "tan_beta_um_per_mm": slope})

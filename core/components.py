@@ -109,6 +109,12 @@ class ThermalModel(RegressorMixin, Component):
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         raise NotImplementedError
 
+    def export_state(self) -> dict[str, Any]:
+        """The fitted model as data for :mod:`thermodrift.compensator`: a JSON-able tree (numpy arrays as leaves)
+        with ``runtime`` (a runtime name), ``inputs``, ``targets`` and ``history_length`` (docs compensator.md).
+        A model that cannot be exported says so; families override this."""
+        raise NotImplementedError(f"model {type(self).__name__} cannot be exported: it has no export_state")
+
 
 class Streamer:
     """Predicts one new input row per :meth:`update`, as a CNC controller calls a compensation model.

@@ -5,6 +5,11 @@ At start-up :func:`store` puts one node per registered selector, model, optimize
 own), unless a YAML file ``<group>/<name>.yaml`` exists on the search path: a shipped YAML overrides the node.
 Hydra reads the store after every file source, but a YAML and a stored node of one name would be merged
 (Hydra's deprecated "schema matching"), so a name with a YAML gets no node at all.
+
+So the code is the one home of a component's defaults: a default changed in Python reaches ``thermodrift run``.
+A YAML is a preset that differs from the node (S1's PSO settings as ``optimizer=pso_s1``) or configures a
+factory whose parameters the node cannot see (``**params``); :func:`repeated_yamls` finds YAMLs that only
+restate the node, and the test suite fails on any that thermodrift ships.
 """
 
 from __future__ import annotations
@@ -15,25 +20,39 @@ import inspect
 from pathlib import Path
 from typing import Any
 
+import yaml
+
 from thermodrift.core.registry import CONFIG_GROUPS, Component, Registry
 
 CONFIG_MODULE = "thermodrift.conf"
 _PRIMARY = f"pkg://{CONFIG_MODULE}"
 
 
+# Parameters a job passes itself, left out of the node so that they follow the run: the run's seed (selectors,
+# models: study._with_seed; optimizers: the sampler's seed) and the study's budget (optimizers).
+_PASSED_BY_THE_JOB = {"selector": ("random_state", "seed"), "model": ("random_state", "seed"),
+                      "optimizer": ("seed", "n_trials")}
+
+
 def node(component: Component) -> dict[str, Any]:
     """The config a YAML would hold for ``component``: its name, constructor defaults, models' search space.
 
-    Defaults that are not plain data (numbers, strings, lists, dicts, None) are left to the constructor.
+    A parameter without a default is ``???`` (Hydra's missing value: the command line must give it). Defaults
+    that are not plain data (numbers, strings, lists, dicts, None) are left to the constructor, and so are the
+    seed and budget a job passes itself.
     """
     params = {}
     try:
         signature = inspect.signature(component.factory)
     except (TypeError, ValueError):
         signature = None
+    passed = _PASSED_BY_THE_JOB.get(component.kind, ())
     for pname, p in (signature.parameters.items() if signature else ()):
-        if (p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and p.default is not p.empty
-                and not (component.kind == "optimizer" and pname in ("seed", "n_trials")) and _plain(p.default)):
+        if p.kind not in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) or pname in passed:
+            continue
+        if p.default is p.empty:
+            params[pname] = "???"
+        elif _plain(p.default):
             params[pname] = list(p.default) if isinstance(p.default, tuple) else p.default
     trainer_defaults = getattr(component.factory, "trainer_defaults", None)  # torch models' TrainerSettings
     if "trainer" in params and dataclasses.is_dataclass(trainer_defaults):
@@ -73,6 +92,26 @@ def yaml_files(searchpaths: list[str], group: str) -> dict[str, Any]:
             if f.name.endswith(".yaml"):
                 found.setdefault(f.name[: -len(".yaml")], f)
     return found
+
+
+def repeated_yamls(registry: Registry, searchpaths: list[str] | None = None) -> list[str]:
+    """The YAML files (``<group>/<file>``) of thermodrift's configs and ``searchpaths`` that only restate the node
+    of the component they name: every value they give equals the node's (``params`` compared key by key, so a
+    subset of the defaults counts; ``search_space`` as a whole)."""
+    out = []
+    for kind, group in CONFIG_GROUPS.items():
+        for option, path in sorted(yaml_files(list(searchpaths or []), group).items()):
+            data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+            name = data.get("name", option)
+            if name in registry.names(kind) and _repeats(data, node(registry.get(kind, name))):
+                out.append(f"{group}/{option}.yaml")
+    return out
+
+
+def _repeats(given: Any, generated: Any, key: str = "") -> bool:
+    if isinstance(given, dict) and isinstance(generated, dict) and key != "search_space":
+        return all(k in generated and _repeats(v, generated[k], k) for k, v in given.items())
+    return given == generated
 
 
 def store(registry: Registry) -> None:

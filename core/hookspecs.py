@@ -1,4 +1,6 @@
-"""The plugin surface of thermodrift: one hook per component kind, each receiving the registry.
+"""The plugin surface of thermodrift: one hook per component kind, each receiving ``registry``, the registry's
+doors bound to the calling plugin (:class:`~thermodrift.core.registry.Registrar`: ``add``, ``add_searchpath``,
+``add_hydra_plugin``), so every component records the distribution that registered it.
 
 A plugin is a module named in the ``thermodrift`` entry-point group that implements any of these hooks::
 

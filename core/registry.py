@@ -57,27 +57,35 @@ class Component:
 
 @dataclass
 class Registry:
-    """Components by kind and name, filled by the plugins' hooks. Hooks call :meth:`add`."""
+    """Components by kind and name, filled by the plugins' hooks.
+
+    Each hook gets a :class:`Registrar` bound to its plugin's origin (``registry.add(kind, name, factory)`` in the
+    hook); :meth:`add` called on the registry itself records the given ``origin`` and ``module``.
+    """
 
     components: dict[str, dict[str, Component]] = field(default_factory=lambda: {k: {} for k in KINDS})
     searchpaths: list[str] = field(default_factory=list)
     hydra_plugins: list[Callable[[], None]] = field(default_factory=list)
     failures: dict[str, str] = field(default_factory=dict)  # "distribution (entry point)" -> error
-    _origin: str = "<unknown>"
-    _module: str = "<unknown>"
 
-    def add(self, kind: str, name: str, factory: Callable[..., Any]) -> None:
-        """Register ``factory`` (a class or callable) as component ``name`` of ``kind``."""
+    def add(self, kind: str, name: str, factory: Callable[..., Any], *, origin: str = "<unknown>",
+            module: str = "<unknown>") -> None:
+        """Register ``factory`` (a class or callable) as component ``name`` of ``kind``, from plugin module
+        ``module`` of distribution ``origin``."""
         if kind not in KINDS:
-            raise PluginError(f"{self._origin}: unknown component kind {kind!r}; use one of {', '.join(KINDS)}")
+            raise PluginError(f"{origin}: unknown component kind {kind!r}; use one of {', '.join(KINDS)}")
         if not callable(factory):
-            raise PluginError(f"{self._origin}: {kind} {name!r} is not callable")
+            raise PluginError(f"{origin}: {kind} {name!r} is not callable")
         known = self.components[kind].get(name)
         if known is not None:
             raise DuplicateComponentError(
                 f"duplicate {kind} name {name!r}: registered by {known.origin} ({known.module}) "
-                f"and by {self._origin} ({self._module}); rename one of them")
-        self.components[kind][name] = Component(kind, name, factory, self._origin, self._module)
+                f"and by {origin} ({module}); rename one of them")
+        self.components[kind][name] = Component(kind, name, factory, origin, module)
+
+    def registrar(self, origin: str, module: str = "<unknown>") -> "Registrar":
+        """What a plugin's hook receives: this registry's doors, bound to the plugin's origin."""
+        return Registrar(self, origin, module)
 
     def add_searchpath(self, path: str) -> None:
         """Add a Hydra config search path such as ``pkg://my_plugin.conf``."""
@@ -119,6 +127,37 @@ class Registry:
         if kind not in KINDS:
             raise PluginError(f"unknown component kind {kind!r}; use one of {', '.join(KINDS)}")
         return self.components[kind]
+
+
+@dataclass(frozen=True)
+class Registrar:
+    """The registry as one plugin sees it: every component it adds records the plugin's distribution
+    (``origin``) and module, so a duplicate name or a failed plugin is reported by name."""
+
+    registry: Registry
+    origin: str
+    module: str
+
+    def add(self, kind: str, name: str, factory: Callable[..., Any]) -> None:
+        """Register ``factory`` (a class or callable) as component ``name`` of ``kind``."""
+        self.registry.add(kind, name, factory, origin=self.origin, module=self.module)
+
+    def add_searchpath(self, path: str) -> None:
+        """Add a Hydra config search path such as ``pkg://my_plugin.conf``."""
+        self.registry.add_searchpath(path)
+
+    def add_hydra_plugin(self, register: Callable[[], None]) -> None:
+        """Add a function that registers Hydra plugins (see :meth:`Registry.add_hydra_plugin`)."""
+        self.registry.add_hydra_plugin(register)
+
+    @property
+    def components(self) -> dict[str, dict[str, Component]]:
+        """What is registered so far, by kind and name (a hook wrapper reads what the wrapped plugin added)."""
+        return self.registry.components
+
+    def names(self, kind: str) -> list[str]:
+        """Sorted names of the components of ``kind`` registered so far."""
+        return self.registry.names(kind)
 
 
 def accepts(factory: Callable[..., Any], param: str) -> bool:
@@ -181,15 +220,14 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
             if key in registry.failures:
                 continue
             others = [i.plugin for i in plain if i is not impl]
-            registry._origin, registry._module = origin, module_name
             try:
-                manager.subset_hook_caller(hook_name, remove_plugins=others)(registry=registry)
+                manager.subset_hook_caller(hook_name, remove_plugins=others)(
+                    registry=registry.registrar(origin, module_name))
             except DuplicateComponentError:
                 raise
             except _PLUGIN_FAULTS as exc:  # same rule as for import failures; what it added is dropped
                 registry.failures[key] = _one_line(exc)
                 registry.drop(origin, module_name)
-    registry._origin = registry._module = "<unknown>"
     return registry
 
 

@@ -58,18 +58,15 @@ def parent_run(client, ref: str, experiment_ids: list[str] | None = None):
 
 
 def collect(client, parent_id: str) -> pd.DataFrame:
-    """One row per (job run, fold, source) under ``parent_id`` with the job's tags and the fold's metrics."""
+    """One row per (job run, fold, source) under ``parent_id`` with the job's tags and the fold's metrics; a
+    baseline evaluated identically by several jobs has one row (that of the first job by run id)."""
     parent = client.get_run(parent_id)
     children = client.search_runs([parent.info.experiment_id], f"tags.mlflow.parentRunId = '{parent_id}'")
     rows = []
     for run in children:
         tags, params, metrics = run.data.tags, run.data.params, run.data.metrics
         folds = sorted({int(k.split("/")[0][4:]) for k in metrics if k.startswith("fold") and "/" in k})
-        split_params = {k.removeprefix("split.params."): v for k, v in sorted(params.items())
-                        if k.startswith("split.params.") and v not in ("None", "null", "")}
-        split = tags.get("split")
-        if split_params:  # two configs of one split kind (S1's 360/60 and 80/20) stay apart
-            split = f"{split} ({', '.join(f'{k}={v}' for k, v in split_params.items())})"
+        split = split_label(tags, params)  # two configs of one split kind (S1's 360/60 and 80/20) stay apart
         base = {"run_id": run.info.run_id, **{t: tags.get(t) for t in ("dataset", "model", "optimizer",
                                                                         "selector", "protocol", "ablation")},
                 "split": split, "selected_sensors": params.get("selected_sensors", ""),
@@ -91,8 +88,55 @@ def collect(client, parent_id: str) -> pd.DataFrame:
     if table.empty:
         raise InputError(f"run {parent_id} has no finished job runs with per-fold metrics",
                          hint="run a grid with `thermodrift run -m ...` first")
-    return table.sort_values(["protocol", "split", "run_id", "fold", "tuned", "source"],
-                             ascending=[True, True, True, True, False, True], ignore_index=True)
+    table = table.sort_values(["protocol", "split", "run_id", "fold", "tuned", "source"],
+                              ascending=[True, True, True, True, False, True], ignore_index=True)
+    # Every job refits the baselines on its own rows: jobs that differ only in the model or optimizer evaluate
+    # the same baseline on the same rows (same recording, selection, split and fold, equal metrics). That is
+    # one evaluation, so it keeps one row and no table lists it once per job.
+    same = ["dataset", "selector", "ablation", "protocol", "split", "fold", "selected_sensors", "source", *METRICS]
+    return table[table["tuned"] | ~table.duplicated(same)].reset_index(drop=True)
+
+
+def split_params(params: dict) -> dict[str, str]:
+    """A job run's split parameters (logged ``split.params.<name>``), unset ones left out, by name."""
+    return {k.removeprefix("split.params."): v for k, v in sorted(params.items())
+            if k.startswith("split.params.") and v not in ("None", "null", "")}
+
+
+def split_label(tags: dict, params: dict, only: set[str] | None = None) -> str:
+    """The split of a job run: its kind (tag ``split``) with its parameters, e.g. ``paper_session (test=60,
+    train=360, ...)``; ``only`` keeps those parameter names."""
+    given = {k: v for k, v in split_params(params).items() if only is None or k in only}
+    split = tags.get("split") or ""
+    return f"{split} ({', '.join(f'{k}={v}' for k, v in given.items())})" if given else split
+
+
+def best_jobs(runs) -> list:
+    """The best finished job run of each protocol by inner validation RMSE (``valid/best_rmse``, never a held-out
+    score), honest first. Validation RMSEs of different protocols come from different splits, so jobs are only
+    compared within a protocol (tag ``protocol``); within one, compensation models come first (a job tagged
+    ``reference``, such as persistence, only when all are)."""
+    finished = [r for r in runs if r.info.status == "FINISHED" and "valid/best_rmse" in r.data.metrics]
+    protocols = sorted({r.data.tags.get("protocol", "") for r in finished}, key=lambda p: (p != "honest", p))
+    out = []
+    for protocol in protocols:
+        jobs = [r for r in finished if r.data.tags.get("protocol", "") == protocol]
+        models = [r for r in jobs if "reference" not in r.data.tags] or jobs
+        out.append(min(models, key=lambda r: r.data.metrics["valid/best_rmse"]))
+    return out
+
+
+def best_job_lines(best: list) -> list[str]:
+    """One line per protocol's best job (:func:`best_jobs`), paper jobs labelled as such."""
+    lines = []
+    for run in best:
+        protocol = run.data.tags.get("protocol", "")
+        label = "" if protocol == "honest" else (
+            " (protocol=paper: rows leak between train and test, not comparable with honest jobs)"
+            if protocol == "paper" else f" (protocol={protocol or 'unknown'})")
+        lines.append(f"best {'' if protocol == 'honest' else protocol + ' '}job by inner validation RMSE{label}: "
+                     f"{run.info.run_name} ({run.info.run_id})")
+    return lines
 
 
 def s1_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -269,14 +313,25 @@ BASELINES = ("mlr", "persistence")
 
 def runs_table(runs) -> pd.DataFrame:
     """One row per MLflow run (``mlflow.entities.Run``) in the given order. Columns: the components (tags; the
-    dataset is the recording file's name when there is one),
+    dataset is the recording file's name when there is one; a split with the parameters that tell it apart from
+    another of its kind in these runs), ``protocol``,
     ``rmse <target>``, then ``mlr <target>`` and ``persistence <target>`` per target channel (µm, held-out,
     mean over folds), ``rmse`` (mean over targets), ``wall_s`` and ``status``. Failed jobs keep their row."""
+    runs = list(runs)
+    # Runs of one split kind with different parameters (S1's 360/60 and 80/20 paper splits) are told apart by the
+    # parameters that differ between them.
+    by_kind: dict[str, list[dict]] = {}
+    for run in runs:
+        by_kind.setdefault(run.data.tags.get("split", ""), []).append(split_params(run.data.params))
+    differing = {kind: {k for p in ps for k in p if len({str(q.get(k)) for q in ps}) > 1}
+                 for kind, ps in by_kind.items()}
     rows = []
     for run in runs:
         tags, metrics = run.data.tags, run.data.metrics
         row = {c: tags.get(c, "") for c in COMPONENTS}
         row["dataset"] = tags.get("recording") or row["dataset"]  # a recording file's name says more
+        row["split"] = split_label(tags, run.data.params, differing[tags.get("split", "")])
+        row["protocol"] = tags.get("protocol", "")
         for target in _targets(tags):
             row[f"rmse {target}"] = metrics.get(f"test/{target}/rmse")
             for base in BASELINES:

@@ -32,15 +32,15 @@ from typing import Any, Callable
 import numpy as np
 import optuna
 import pandas as pd
-import torch
 
 from thermodrift.core import efficiency, registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
+from thermodrift.core.recording import TEMPERATURE_ROLES
 
 SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
-INPUT_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+INPUT_ROLES = TEMPERATURE_ROLES  # the channels a model may read: every temperature (°C)
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
 
 
@@ -178,7 +178,7 @@ class Job:
                  else registry.get("model", spec.model).factory.search_space())
         search_space.distributions(space)  # a malformed space fails here, before any trial
         optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
-        torch.set_num_threads(spec.threads)
+        training.set_num_threads(spec.threads)
         base = spec.study_name or spec.default_study_name()
         results = []
         for k, fold in enumerate(folds, 1):
@@ -190,109 +190,7 @@ class Job:
     def _fold(self, recording, fold: splits.Fold, features: list[str], targets: list[str], space: dict,
               study_name: str) -> FoldResult:
         """Select, tune, refit and evaluate on one fold; only ``fold.train`` rows reach selection and tuning."""
-        spec = self.spec
-        y_all = recording.data[targets]
-        X_all = recording.data[features]
-        sel_factory = registry.get("selector", spec.selector).factory
-        sel_space = (spec.selector_search_space if spec.selector_search_space is not None
-                     else sel_factory.search_space())
-        sel_space = {f"{SELECTOR_PREFIX}{k}": v for k, v in (sel_space or {}).items()} if spec.n_trials else {}
-        search_space.distributions(sel_space)
-
-        def fit_selector(params: dict, rows: np.ndarray):
-            sel = registry.create("selector", spec.selector,
-                                  **_with_seed(sel_factory, {**spec.selector_params, **params}, spec.seed))
-            return sel.fit(X_all.iloc[rows], y_all.iloc[rows])
-
-        selector = fit_selector({}, fold.train)
-        frames: dict[tuple, pd.DataFrame] = {}
-
-        def inputs(model_name: str, chosen: list[str] | None = None) -> pd.DataFrame:
-            key = (model_name, tuple(chosen if chosen is not None else selector.selected_))
-            if key not in frames:
-                cls = registry.get("model", model_name).factory
-                frames[key] = model_inputs(recording, list(key[1]), cls, targets)
-            return frames[key]
-
-        inner = splits.inner_fold(recording.select(fold.train))
-        inner_train, inner_val = fold.train[inner.train], fold.train[inner.test]
-
-        def validate(params: dict, trial: optuna.Trial | None = None, chosen: list[str] | None = None) -> float:
-            model = self._model(spec.model, params)
-            with training.reporting(trial) if trial is not None else contextlib.nullcontext():
-                model.fit(inputs(spec.model, chosen).iloc[inner_train], y_all.iloc[inner_train])
-            pred = predict_rows(model, inputs(spec.model, chosen), inner_val, allowed=fold.train)
-            rmse = evaluate(y_all.iloc[inner_val], pred)["mean"]["rmse"]
-            if trial is not None:
-                report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
-                for key, value in (report.metrics() if report is not None else {}).items():
-                    trial.set_user_attr(f"train/{key}", value)
-            return rmse
-
-        def objective(trial: optuna.Trial) -> float:
-            resume.claim(trial)
-            chosen = None
-            if sel_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
-                sel_params = {k.removeprefix(SELECTOR_PREFIX): v for k, v in search_space.suggest(trial, sel_space).items()}
-                chosen = fit_selector(sel_params, inner_train).selected_
-                trial.set_user_attr("selected", ",".join(chosen))
-            try:
-                rmse = validate({**spec.model_params, **search_space.suggest(trial, space)}, trial, chosen)
-            except training.DivergedError as exc:
-                trial.set_user_attr("diverged", True)
-                trial.set_user_attr("fail_reason", str(exc))
-                raise
-            if not np.isfinite(rmse):
-                raise ValueError(f"validation RMSE is {rmse}")
-            return rmse
-
-        study, done = None, 0
-        if spec.n_trials == 0:
-            best, valid = dict(spec.model_params), validate(dict(spec.model_params))
-        else:
-            study = self._study(study_name)
-            resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
-            done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
-            budget = 1 if not space else spec.n_trials
-            if done:
-                complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-                self.say(f"study {study_name} resumed: {complete} of {max(budget, done)} trials complete"
-                         f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
-                         f"{max(0, budget - done)} to run")
-            if done < budget:  # other workers on the same study count too: the budget is the study's
-                study.optimize(trial_faults.reporting(objective), n_trials=budget - done, timeout=spec.timeout_s,
-                               catch=(Exception,), callbacks=[*self.callbacks, resume.StudyBudget(budget)],
-                               show_progress_bar=spec.progress)
-            resume.fail_dead_trials(study)  # a worker killed while this one ran
-            complete = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
-            if not complete:
-                reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason")
-                           for t in study.trials}
-                raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
-                                 f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
-            tuned = study.best_params
-            best = _nested({**spec.model_params,
-                            **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}})
-            valid = float(study.best_value)
-            if sel_space:  # the best trial's selector parameters, refitted on the whole training part
-                selector = fit_selector({k.removeprefix(SELECTOR_PREFIX): v for k, v in tuned.items()
-                                         if k.startswith(SELECTOR_PREFIX)}, fold.train)
-
-        preds: dict[str, np.ndarray] = {}
-        model = None
-        cost: dict[str, float] = {}
-        for who, name, params in [("model", spec.model, best)] + [(b, b, {}) for b in spec.baselines]:
-            started = time.perf_counter()
-            m = self._model(name, params).fit(inputs(name).iloc[fold.train], y_all.iloc[fold.train])
-            fit_s = time.perf_counter() - started
-            if who == "model":  # timed on training rows: the held-out rows are touched once, by the prediction below
-                model, cost = m, efficiency.measure(m, inputs(name), fold.train, fit_s)
-            preds[who] = predict_rows(m, inputs(name), fold.test)
-        y_test = y_all.iloc[fold.test]
-        return FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
-                          {who: evaluate(y_test, p) for who, p in preds.items()}, selected=list(selector.selected_),
-                          best_params=best, valid_rmse=valid, study=study, trials_before=done, model=model,
-                          selector=selector, efficiency=cost)
+        return _FoldRun(self, recording, fold, features, targets, space, study_name).run()
 
     def _targets(self, recording) -> list[str]:
         available = recording.columns("displacement")
@@ -327,6 +225,157 @@ class Job:
         return schema.retrying(lambda: optuna.create_study(
             study_name=name, storage=storage, sampler=sampler, direction="minimize", load_if_exists=True),
             spec.storage)
+
+
+@dataclass
+class _Tuned:
+    """What tuning settled on a fold: the model's parameters, their inner validation RMSE (µm), the selector's
+    tuned parameters (None: not tuned), the study (None: untuned) and its finished trials before this run."""
+
+    params: dict[str, Any]
+    valid_rmse: float
+    selector_params: dict[str, Any] | None = None
+    study: optuna.Study | None = None
+    trials_before: int = 0
+
+
+class _FoldRun:
+    """One fold of a :class:`Job` in four named steps: :meth:`select` sensors, :meth:`tune` the model on the
+    inner validation fold, :meth:`refit` the best parameters and the baselines on the training part, and
+    :meth:`evaluate` them once on the held-out part. Only ``fold.train`` rows reach the first three."""
+
+    def __init__(self, job: Job, recording, fold: splits.Fold, features: list[str], targets: list[str],
+                 space: dict, study_name: str):
+        self.job, self.spec, self.recording, self.fold = job, job.spec, recording, fold
+        self.targets, self.space, self.study_name = targets, space, study_name
+        self.X, self.y = recording.data[features], recording.data[targets]
+        self.selector_factory = registry.get("selector", self.spec.selector).factory
+        sel_space = (self.spec.selector_search_space if self.spec.selector_search_space is not None
+                     else self.selector_factory.search_space())
+        self.selector_space = ({f"{SELECTOR_PREFIX}{k}": v for k, v in (sel_space or {}).items()}
+                               if self.spec.n_trials else {})
+        search_space.distributions(self.selector_space)
+        inner = splits.inner_fold(recording.select(fold.train))
+        self.inner_train, self.inner_val = fold.train[inner.train], fold.train[inner.test]
+        self._frames: dict[tuple, pd.DataFrame] = {}
+
+    def run(self) -> FoldResult:
+        selector = self.select({}, self.fold.train)
+        tuned = self.tune(selector)
+        if tuned.selector_params is not None:  # the best trial's selector parameters, on the whole training part
+            selector = self.select(tuned.selector_params, self.fold.train)
+        fitted, cost = self.refit(tuned.params, selector.selected_)
+        preds, metrics = self.evaluate(fitted, selector.selected_)
+        fold = self.fold
+        return FoldResult(fold.name, self.recording.time_s[fold.test], self.y.iloc[fold.test], preds, metrics,
+                          selected=list(selector.selected_), best_params=tuned.params, valid_rmse=tuned.valid_rmse,
+                          study=tuned.study, trials_before=tuned.trials_before, model=fitted["model"],
+                          selector=selector, efficiency=cost)
+
+    # ------------------------------------------------------------------------------------------------ the steps
+    def select(self, params: dict, rows: np.ndarray):
+        """The selector fitted on ``rows`` with the spec's parameters and ``params`` on top."""
+        spec = self.spec
+        sel = registry.create("selector", spec.selector,
+                              **_with_seed(self.selector_factory, {**spec.selector_params, **params}, spec.seed))
+        return sel.fit(self.X.iloc[rows], self.y.iloc[rows])
+
+    def tune(self, selector) -> _Tuned:
+        """The model's best parameters by inner validation RMSE (µm): an Optuna study of ``n_trials`` (resumed
+        from the storage), or with ``n_trials=0`` the spec's ``model_params``, untuned."""
+        spec = self.spec
+        if spec.n_trials == 0:
+            params = dict(spec.model_params)
+            return _Tuned(params, self.validate(params, selector.selected_))
+        study = self.job._study(self.study_name)
+        resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
+        done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
+        budget = 1 if not self.space else spec.n_trials
+        if done:
+            complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+            self.job.say(f"study {self.study_name} resumed: {complete} of {max(budget, done)} trials complete"
+                         f"{f' ({done - complete} failed or pruned)' if done > complete else ''}, "
+                         f"{max(0, budget - done)} to run")
+        if done < budget:  # other workers on the same study count too: the budget is the study's
+            study.optimize(trial_faults.reporting(lambda trial: self.objective(trial, selector)),
+                           n_trials=budget - done, timeout=spec.timeout_s, catch=(Exception,),
+                           callbacks=[*self.job.callbacks, resume.StudyBudget(budget)],
+                           show_progress_bar=spec.progress)
+        resume.fail_dead_trials(study)  # a worker killed while this one ran
+        if not any(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials):
+            reasons = {t.user_attrs.get("fail_reason") or t.system_attrs.get("fail_reason") for t in study.trials}
+            raise InputError(f"all {len(study.trials)} trials of study {study.study_name!r} failed: "
+                             f"{'; '.join(sorted(str(r) for r in reasons if r))[:300]}")
+        tuned = study.best_params
+        params = _nested({**spec.model_params,
+                          **{k: v for k, v in tuned.items() if not k.startswith(SELECTOR_PREFIX)}})
+        sel_params = ({k.removeprefix(SELECTOR_PREFIX): v for k, v in tuned.items() if k.startswith(SELECTOR_PREFIX)}
+                      if self.selector_space else None)
+        return _Tuned(params, float(study.best_value), sel_params, study, done)
+
+    def refit(self, params: dict, selected: list[str]) -> tuple[dict[str, Any], dict[str, float]]:
+        """The model on ``params`` and each baseline, fitted on the training part; and the model's costs
+        (core/efficiency.py), timed on training rows: the held-out rows are touched once, by :meth:`evaluate`."""
+        spec = self.spec
+        fitted: dict[str, Any] = {}
+        cost: dict[str, float] = {}
+        for who, name, kwargs in [("model", spec.model, params)] + [(b, b, {}) for b in spec.baselines]:
+            frame = self.inputs(name, selected)
+            started = time.perf_counter()
+            fitted[who] = self.job._model(name, kwargs).fit(frame.iloc[self.fold.train], self.y.iloc[self.fold.train])
+            if who == "model":
+                cost = efficiency.measure(fitted[who], frame, self.fold.train, time.perf_counter() - started)
+        return fitted, cost
+
+    def evaluate(self, fitted: dict[str, Any], selected: list[str]) -> tuple[dict[str, np.ndarray], dict]:
+        """Held-out predictions (µm) of every fitted model ("model" and each baseline) and their metrics."""
+        spec = self.spec
+        names = {"model": spec.model, **{b: b for b in spec.baselines}}
+        preds = {who: predict_rows(m, self.inputs(names[who], selected), self.fold.test) for who, m in fitted.items()}
+        y_test = self.y.iloc[self.fold.test]
+        return preds, {who: evaluate(y_test, p) for who, p in preds.items()}
+
+    # ------------------------------------------------------------------------------------------------ tuning parts
+    def objective(self, trial: optuna.Trial, selector) -> float:
+        """One trial: suggest, fit on the inner training rows, and return the inner validation RMSE (µm)."""
+        resume.claim(trial)
+        chosen = selector.selected_
+        if self.selector_space:  # the selector's parameters are tuned jointly: it selects on the inner training rows
+            sel_params = {k.removeprefix(SELECTOR_PREFIX): v
+                          for k, v in search_space.suggest(trial, self.selector_space).items()}
+            chosen = self.select(sel_params, self.inner_train).selected_
+            trial.set_user_attr("selected", ",".join(chosen))
+        try:
+            rmse = self.validate({**self.spec.model_params, **search_space.suggest(trial, self.space)}, chosen, trial)
+        except training.DivergedError as exc:
+            trial.set_user_attr("diverged", True)
+            trial.set_user_attr("fail_reason", str(exc))
+            raise
+        if not np.isfinite(rmse):
+            raise ValueError(f"validation RMSE is {rmse}")
+        return rmse
+
+    def validate(self, params: dict, selected: list[str], trial: optuna.Trial | None = None) -> float:
+        """Inner validation RMSE (µm) of the model on ``params``, fitted on the inner training rows."""
+        model = self.job._model(self.spec.model, params)
+        frame = self.inputs(self.spec.model, selected)
+        with training.reporting(trial) if trial is not None else contextlib.nullcontext():
+            model.fit(frame.iloc[self.inner_train], self.y.iloc[self.inner_train])
+        pred = predict_rows(model, frame, self.inner_val, allowed=self.fold.train)
+        rmse = evaluate(self.y.iloc[self.inner_val], pred)["mean"]["rmse"]
+        if trial is not None:
+            report = getattr(model, "train_report_", None)  # torch models: epochs, grad-norm statistics
+            for key, value in (report.metrics() if report is not None else {}).items():
+                trial.set_user_attr(f"train/{key}", value)
+        return rmse
+
+    def inputs(self, model_name: str, selected: list[str]) -> pd.DataFrame:
+        """The input frame of ``model_name`` on ``selected`` columns for every recording row (built once)."""
+        key = (model_name, tuple(selected))
+        if key not in self._frames:
+            cls = registry.get("model", model_name).factory
+            self._frames[key] = model_inputs(self.recording, list(selected), cls, self.targets)
+        return self._frames[key]
 
 
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:

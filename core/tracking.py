@@ -10,6 +10,9 @@ predictions equal a baseline's. Metric names: ``test/<metric>`` (mean over displ
 explained variance, VAF (%), relative error (%) and compensation rate.
 Efficiency metrics per job: ``efficiency/train_s``, ``efficiency/latency_batch_ms``, ``efficiency/latency_stream_ms``
 (ms per sample) and ``efficiency/n_parameters``.
+
+The physics verbs log here too (:func:`log_calibration`, :func:`log_diagnosis`): physics computes and returns
+its results and never imports this module.
 """
 
 from __future__ import annotations
@@ -31,7 +34,7 @@ from hydra.experimental.callback import Callback
 from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 
-from thermodrift.core import artifacts
+from thermodrift.core import artifacts, deployment
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
 DEFAULT_URI = "sqlite:///mlflow.db"
@@ -178,6 +181,11 @@ def log_result(result, params: dict[str, Any]) -> None:
                 mlflow.log_artifact(str(path), artifact_path=where)
     # Once per job, as an MLflow pyfunc model stored as data only (loading runs no code from the artifact).
     artifacts.log_model(result.model, result.spec.model)
+    if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
+        try:
+            deployment.log(result)
+        except Exception as exc:  # the job's results are logged; what export needs and failed is only noted
+            mlflow.set_tag("compensator_error", _short(f"{type(exc).__name__}: {exc}"))
 
 
 def _log_dataset(result) -> None:
@@ -285,8 +293,8 @@ class SweepRun(Callback):
     The parent's id reaches the jobs (also joblib worker processes) through ``THERMODRIFT_PARENT_RUN_ID``.
     At the end the terminal gets one table of every job (:func:`thermodrift.core.report.runs_table`) and the parent
     run's id; the parent gets a ``grid.csv`` of every child's metrics and the metrics, params and ``best_run_id``
-    of the best finished job, chosen by inner validation RMSE (``valid/best_rmse``, never by held-out scores)
-    among the compensation models (a job tagged ``reference``, such as persistence, only when all are).
+    of the best finished job (:func:`thermodrift.core.report.best_jobs`: by inner validation RMSE, never by held-out
+    scores, compared only within a protocol, honest first; a paper-protocol best is tagged ``best_paper_run_id``).
     """
 
     def on_multirun_start(self, config, **kwargs) -> None:
@@ -317,9 +325,10 @@ class SweepRun(Callback):
                 report.log_to_parent(client, parent)
             except Exception as exc:  # a sweep's jobs are done; a table that cannot be built is only noted
                 client.set_tag(parent, "report_error", str(exc)[:500])
-        finished = [c for c in children if c.info.status == "FINISHED" and "valid/best_rmse" in c.data.metrics]
-        models = [c for c in finished if "reference" not in c.data.tags] or finished  # compensation models first
-        best = min(models, key=lambda c: c.data.metrics["valid/best_rmse"]) if models else None
+        ranked = report.best_jobs(children)  # one per protocol, honest first: never compared across protocols
+        best = ranked[0] if ranked else None
+        for other in ranked[1:]:  # e.g. the best paper-protocol job beside the best honest one
+            client.set_tag(parent, f"best_{other.data.tags.get('protocol', '')}_run_id", other.info.run_id)
         if best is not None:
             stamp = int(time.time() * 1000)
             metrics = [Metric(k, v, stamp, 0) for k, v in best.data.metrics.items()
@@ -329,12 +338,13 @@ class SweepRun(Callback):
                 client.log_batch(parent, metrics=metrics[i:i + 100], params=params[i:i + 100])
             client.set_tag(parent, "best_run_id", best.info.run_id)
             client.set_tag(parent, "best_run_name", best.info.run_name or "")
+            client.set_tag(parent, "best_protocol", best.data.tags.get("protocol", ""))
         client.set_terminated(parent)
         failed = sum(c.info.status != "FINISHED" for c in children)
         print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE (µm) "
               "per target, the baselines beside it:\n"
               + report.format_table(report.runs_table(children))
-              + (f"\nbest job by inner validation RMSE: {best.info.run_name} ({best.info.run_id})" if best else "")
+              + "".join(f"\n{line}" for line in report.best_job_lines(ranked))
               + f"\nparent MLflow run {parent} at {config.tracking.uri or DEFAULT_URI}", flush=True)
 
 
@@ -357,3 +367,49 @@ def flatten(d: dict, prefix: str = "") -> dict[str, Any]:
 
 def _short(v: Any) -> str:
     return str(v)[:500]
+
+
+# --- the physics verbs: physics computes and returns, the verbs log here -------------------------------------------
+
+def log_calibration(result, mm, out_dir: str | Path, tracking_uri: str | None, run_name: str = "calibrate",
+                    experiment: str = "calibrate") -> str:
+    """Log a calibration (``CalibrationResult``), its mismatch map (``MismatchMap``: top windows as tags and
+    shares), RMSEs (K, µm) and objective, and every file in ``out_dir`` to an MLflow run; returns the run id."""
+    setup(tracking_uri, experiment)
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
+        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
+                           "confidence_level": result.level, "stopped": result.stopped[:250]})
+        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
+                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
+        for c in result.rmse:
+            metrics[metric_key("rmse", c)] = result.rmse[c]
+            metrics[metric_key("rmse_initial", c)] = result.rmse_initial[c]
+        top = mm.by_window().head(5)
+        for rank, (name, row) in enumerate(top.iterrows(), start=1):
+            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
+            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out_dir))
+        return run.info.run_id
+
+
+def log_diagnosis(d, doc: dict[str, Any], out: str | Path, tracking_uri: str | None, run_name: str,
+                  seed: int) -> str:
+    """Log a diagnosis (``Diagnosis`` and its ``report.json`` document ``doc``): RMSEs (µm), findings with their
+    confidence, and every file in ``out`` to an MLflow run; returns the run id."""
+    setup(tracking_uri, "diagnose")
+    with mlflow.start_run(run_name=run_name) as run:
+        mlflow.set_tags({"kind": "diagnosis", "network": d.baseline_network.name,
+                         "findings": ",".join(f["mechanism"] for f in d.findings) or "none"})
+        mlflow.log_params({"seed": seed, "screened": d.screened, "network": d.baseline_network.name})
+        metrics = {"seconds": d.seconds, "findings": float(len(d.findings))}
+        for part in ("baseline", "augmented"):
+            for key in ("rmse_um", "heldout_rmse_um"):
+                for c, v in doc[part][key].items():
+                    metrics[metric_key(f"{part}_{key}", c)] = v
+        for f in d.findings:
+            metrics[f"confidence/{f['mechanism']}"] = f["confidence"]
+        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
+        mlflow.log_artifacts(str(out))
+        return run.info.run_id

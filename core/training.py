@@ -35,6 +35,7 @@ import copy
 import dataclasses
 import math
 import time
+import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable, ClassVar, Iterator
@@ -235,6 +236,13 @@ def resolve_device(device: str) -> torch.device:
     return torch.device(device)
 
 
+def set_num_threads(threads: int) -> None:
+    """Set torch's CPU threads for this process (1 is fastest for small thermal networks)."""
+    import torch
+
+    torch.set_num_threads(threads)
+
+
 @contextmanager
 def seeded(seed: int, device: torch.device | None = None) -> Iterator[None]:
     """Seed torch (CPU and ``device``) and numpy's global generator; restore the previous states on exit."""
@@ -312,6 +320,15 @@ def _step(params: list[nn.Parameter], optimizer: torch.optim.Optimizer, loss: to
 
 
 # ---------------------------------------------------------------------------------------------------- training
+def training_rows(n_samples: int, config: TrainerSettings) -> int:
+    """How many of ``n_samples`` time-ordered samples :func:`train` fits on; the rest, the last
+    ``validation_fraction`` of them (at least one when the fraction is above 0), is the validation tail."""
+    n_val = max(1, round(config.validation_fraction * n_samples)) if config.validation_fraction > 0 else 0
+    if n_samples - n_val < 1:
+        raise ValueError(f"{n_samples} samples are too few for validation_fraction={config.validation_fraction}")
+    return n_samples - n_val
+
+
 def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: TrainerSettings, *,
           random_state: int = 0) -> TrainResult:
     """Train the module that ``build()`` returns on inputs ``X`` (n, ..., features) and targets ``y`` (n, k) µm,
@@ -327,10 +344,8 @@ def train(build: Callable[[], nn.Module], X: np.ndarray, y: np.ndarray, config: 
     X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float).reshape(len(X), -1)
     if not (np.isfinite(X).all() and np.isfinite(y).all()):
         raise ValueError("training data contain NaN or infinite values")
-    n_val = max(1, round(config.validation_fraction * len(X))) if config.validation_fraction > 0 else 0
-    n_train = len(X) - n_val
-    if n_train < 1:
-        raise ValueError(f"{len(X)} samples are too few for validation_fraction={config.validation_fraction}")
+    n_train = training_rows(len(X), config)
+    n_val = len(X) - n_train
     x_scaler, y_scaler = Standardizer.fit(X[:n_train]), Standardizer.fit(y[:n_train])
     device = resolve_device(config.device)
 
@@ -477,6 +492,39 @@ class TorchThermalModel(ThermalModel):
         module.load_state_dict(self.state_dict_)
         return predict(module, self._inputs(X), self.x_scaler_, self.y_scaler_,
                        resolve_device(self.trainer_settings().device))
+
+    def export_state(self) -> dict[str, Any]:
+        """Runtime ``sequence`` (architecture ``torch.export``): the network traced by ``torch.export`` for one
+        sample (``window`` rows for sequence models), its graph as JSON bytes and its weights as tensors, and the
+        scalers; :mod:`thermodrift.compensator.networks` runs it without this class."""
+        import io
+
+        import torch
+        from torch._export.serde import serialize as serde
+
+        with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
+            module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
+        module.load_state_dict(self.state_dict_)
+        sample = self._inputs(pd.DataFrame(np.zeros((1, len(self.feature_names_in_))), columns=self.feature_names_in_))
+        window = int(sample.shape[1]) if sample.ndim == 3 else None
+        with warnings.catch_warnings():  # torch notes that nn.LSTM sets its flat weights while traced; harmless
+            warnings.filterwarnings("ignore", message=".*were assigned during export", category=UserWarning)
+            program = torch.export.export(module.eval(), (torch.zeros(sample.shape),))
+        art = serde.serialize(program)
+
+        def tensors(blob: bytes):
+            return torch.load(io.BytesIO(blob), weights_only=True) if blob else {}
+
+        weights = tensors(art.state_dict)
+        return {"runtime": "sequence", "architecture": "torch.export", "window": window,
+                "inputs": [str(c) for c in self.feature_names_in_], "targets": list(self.target_names_),
+                "history_length": self.history_length,
+                "program": np.frombuffer(art.exported_program, dtype=np.uint8).copy(),
+                "weights": dict(weights),
+                "parameters": [k for k, v in weights.items() if isinstance(v, torch.nn.Parameter)],
+                "constants": dict(tensors(art.constants)),
+                "x_mean": np.asarray(self.x_scaler_.mean), "x_scale": np.asarray(self.x_scaler_.scale),
+                "y_mean": np.asarray(self.y_scaler_.mean), "y_scale": np.asarray(self.y_scaler_.scale)}
 
 
 _TRAINER_FIELDS = frozenset(f.name for f in dataclasses.fields(TrainerSettings))

@@ -3,11 +3,15 @@
 import pytest
 from hydra import compose, initialize_config_module
 
-from thermodrift.core.cli.run import _split_flags, spec_from_config
+from thermodrift.core import configs, registry
+from thermodrift.core.cli.run import spec_from_config
+from thermodrift.core.cli.run_options import split_flags
 
 
 @pytest.fixture()
 def cfg_for():
+    configs.store(registry.default())  # the components' config nodes, as `thermodrift run` stores them
+
     def make(*overrides):
         with initialize_config_module(config_module="thermodrift.conf", version_base="1.3"):
             return compose(config_name="config", overrides=list(overrides))
@@ -31,7 +35,7 @@ def test_experiment_preset_overrides_top_level_keys(cfg_for):
 
 
 def test_hydra_options_are_accepted_anywhere():
-    flags, rest = _split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
+    flags, rest = split_flags(["model=bp", "-m", "seed=1", "--cfg", "job", "-cn", "other", "x=1"])
     assert flags == ["-m", "--cfg", "job", "-cn", "other"]
     assert rest == ["model=bp", "seed=1", "x=1"]
 

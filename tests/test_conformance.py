@@ -248,6 +248,6 @@ def test_a_component_without_yaml_composes_from_its_registry_entry():
 
 def test_check_component_includes_the_hydra_config():
     reg = Registry()
-    reg.add("model", "mlr", _BadSearchSpace)  # the shipped conf/model/mlr.yaml tunes alpha, which it lacks
+    reg.add("model", "mlr", _BadSearchSpace)  # its search space tunes units, which it lacks
     with pytest.raises(ConformanceError, match=r"check_hydra_config: .*not constructor parameters"):
         check_component("model", "mlr", reg)

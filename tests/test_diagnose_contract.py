@@ -10,7 +10,7 @@ import pytest
 from thermodrift.core import registry
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics import load_network
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, check_free
+from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter, check_free
 from thermodrift.testing import ConformanceError, check_mechanism
 
 REG = registry.load()
@@ -32,9 +32,9 @@ def test_bounds_outside_the_network_field_limits_are_refused():
     net = REG.create("mechanism", "cutting_heat").apply(load_network("demo_spindle"))
     path = next(p for p in net.parameters() if p.endswith(".fraction"))
     with pytest.raises(InputError, match="outside its limits"):
-        check_free(net, [FreeParam("fraction", (path,), 0.5, 0.1, 2.28, "1")], "cutting_heat")
+        check_free(net, [FreeParameter("fraction", (path,), 0.5, 0.1, 2.28, "1")], "cutting_heat")
     with pytest.raises(InputError, match="has no parameter"):
-        check_free(net, [FreeParam("g", ("edges.nope.G_W_K",), 1.0, 0.1, 2.0, "W/K")], "x")
+        check_free(net, [FreeParameter("g", ("edges.nope.G_W_K",), 1.0, 0.1, 2.0, "W/K")], "x")
 
 
 def test_every_registered_mechanism_passes_the_contract():
@@ -56,7 +56,7 @@ class _Broken(Mechanism):
 
     def _declare(self, before, after, p, o):
         e = after.edges[0]
-        return [FreeParam("G_W_K", (f"edges.{e.name}.G_W_K",), p["G_W_K"], 0.1, 10.0, "W/K")]
+        return [FreeParameter("G_W_K", (f"edges.{e.name}.G_W_K",), p["G_W_K"], 0.1, 10.0, "W/K")]
 
 
 def test_the_mechanism_checks_catch_a_broken_mechanism():

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from thermodrift.core import registry
+from thermodrift.core.physics.calibration import FreeParameter
 from thermodrift.core.physics.diagnose import fitted_label, noise, report, screening, selection
-from thermodrift.core.physics.mechanisms import FreeParam
 
 REG = registry.default()
 
@@ -90,8 +90,8 @@ def test_rounds_spend_the_level_and_stay_below_it():
     assert sum(levels) < 0.01 and all(a > b for a, b in zip(levels, levels[1:]))
 
 
-def _fp(name: str, low: float, high: float, scale: str = "log") -> FreeParam:
-    return FreeParam(name, (f"sources.x.{name}",), 1.0, low, high, "1", scale=scale)
+def _fp(name: str, low: float, high: float, scale: str = "log") -> FreeParameter:
+    return FreeParameter(name, (f"sources.x.{name}",), low, low, high, "1", scale=scale)
 
 
 def _bearing_win(parameters: dict, ci: dict, fixed: dict | None = None,

@@ -10,6 +10,7 @@ import yaml
 
 from thermodrift.core import physics, registry
 from thermodrift.core.physics import scenarios
+from thermodrift.core.physics.calibration import StateObserver
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
 from thermodrift.plugins.models.lptn import LPTN, LPTNHybrid, input_roles
@@ -40,6 +41,7 @@ def frames():
     rec = synthesize(net, scen, 0).recording
     assert not rec.columns("ambient")
     X = rec.data[["T_spindle", "T_column", "spindle_rpm"]]
+    X.attrs["roles"] = {c: rec.channels[c].role for c in X.columns}  # as the study passes them
     y = rec.data[["disp_z", "disp_x"]]
     cut = int(np.searchsorted(rec.time_s, 16 * 3600.0))
     return X, y, cut
@@ -89,6 +91,20 @@ def test_the_room_swing_is_taken_from_the_measured_column_and_the_hybrid_keeps_i
     assert rmse["LPTNHybrid"] <= 1.05 * rmse["LPTN"], rmse
 
 
+def test_the_state_observer_starts_again_after_reset(frames):
+    X, _, _ = frames
+    obs = StateObserver(physics.network_from_dict(SPEC), ["T_spindle", "T_column"])
+    t, speed = np.asarray(X.index, dtype=float), X["spindle_rpm"].to_numpy()
+    ambient, temps = np.full(len(X), 22.0), X[["T_spindle", "T_column"]].to_numpy()
+    first = obs.run(t[:100], speed[:100], ambient[:100], ambient[:100], temps[:100])
+    obs.run(t[100:200], speed[100:200], ambient[100:200], ambient[100:200], temps[100:200])
+    obs.reset()
+    assert obs.x is None
+    assert np.array_equal(obs.run(t[:100], speed[:100], ambient[:100], ambient[:100], temps[:100]), first)
+    obs.reset()
+    assert np.array_equal(obs.update(t[0], speed[0], 22.0, 22.0, temps[0]), first[0])
+
+
 def test_pickle_round_trip(frames):
     X, y, cut = frames
     model = LPTNHybrid(**CHEAP).fit(X.iloc[:cut], y.iloc[:cut])
@@ -96,16 +112,19 @@ def test_pickle_round_trip(frames):
     assert np.array_equal(model.predict(X.iloc[cut:]), again.predict(X.iloc[cut:]))
 
 
-def test_input_roles_from_attrs_names_and_values():
+def test_input_roles_come_from_the_roles_the_study_passes_not_from_names():
     t = pd.Index(np.arange(5) * 60.0, name="time_s")
-    X = pd.DataFrame({"T_spindle": 20.0 + np.arange(5), "n": [0, 0, 3000, 3000, 0], "T_air": 21.0}, index=t)
-    with pytest.raises(ValueError, match="speed"):
-        input_roles(X.assign(n=[0.0, 0.5, 1.0, 0.5, 0.0]))
-    assert input_roles(X) == ("n", None, ["T_spindle", "T_air"])  # speed found by its values, not by "spindle"
-    assert input_roles(X.rename(columns={"T_air": "ambient_C"})) == ("n", "ambient_C", ["T_spindle"])
-    X.attrs["roles"] = {"T_spindle": "temperature", "n": "speed", "T_air": "ambient"}
-    assert input_roles(X) == ("n", "T_air", ["T_spindle"])
-    assert input_roles(X, speed_column="n", ambient_column=None) == ("n", "T_air", ["T_spindle"])
+    X = pd.DataFrame({"T_spindle": 20.0 + np.arange(5), "rpm": [0, 0, 3000, 3000, 0], "ambient_C": 21.0}, index=t)
+    with pytest.raises(ValueError, match="role 'speed'"):
+        input_roles(X)  # no roles: a column named like a speed is not taken for one
+    assert input_roles(X, speed_column="rpm") == ("rpm", None, ["T_spindle", "ambient_C"])
+    X.attrs["roles"] = {"T_spindle": "speed", "rpm": "temperature", "ambient_C": "temperature"}
+    assert input_roles(X) == ("T_spindle", None, ["rpm", "ambient_C"])  # roles, whatever the names say
+    X.attrs["roles"] = {"T_spindle": "temperature", "rpm": "speed", "ambient_C": "ambient"}
+    assert input_roles(X) == ("rpm", "ambient_C", ["T_spindle"])
+    assert input_roles(X, speed_column="rpm", ambient_column=None) == ("rpm", "ambient_C", ["T_spindle"])
+    with pytest.raises(ValueError, match="speed_column='n'"):
+        input_roles(X, speed_column="n")
 
 
 def test_registered_with_configs_and_search_spaces():

@@ -9,7 +9,7 @@ import pytest
 
 from thermodrift.core import physics
 from thermodrift.core.physics import calibration as cal
-from thermodrift.core.cli.calibrate import log_to_mlflow
+from thermodrift.core.tracking import log_calibration
 from thermodrift.core.physics import mismatch, scenarios
 from thermodrift.core.physics.scenarios import Block
 from thermodrift.core.physics.synthetic import synthesize
@@ -75,7 +75,7 @@ def test_mismatch_is_logged_to_mlflow(concealed, tmp_path):
     out.mkdir()
     (out / "mismatch.json").write_text(json.dumps(mm.to_dict()), encoding="utf-8")
     uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
-    run_id = log_to_mlflow(result, mm, out, uri, run_name="test")
+    run_id = log_calibration(result, mm, out, uri, run_name="test")
     run = mlflow.MlflowClient(uri).get_run(run_id)
     assert run.data.metrics["rmse/disp_z"] == pytest.approx(result.rmse["disp_z"])
     assert run.data.tags["mismatch_top1"].startswith(mm.by_window().index[0])

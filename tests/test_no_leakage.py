@@ -54,9 +54,9 @@ def test_every_honest_split_kind_is_covered():
 @pytest.fixture()
 def reg(monkeypatch):
     loaded = registry.load()
-    loaded._origin = loaded._module = "tests"
-    loaded.add("model", "recording_mlr", RecordingModel)
-    loaded.add("selector", "recording_top_k", RecordingSelector)
+    tests = loaded.registrar("tests", __name__)
+    tests.add("model", "recording_mlr", RecordingModel)
+    tests.add("selector", "recording_top_k", RecordingSelector)
     monkeypatch.setattr(registry, "_DEFAULT", loaded)
     return loaded
 

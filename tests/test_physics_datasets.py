@@ -10,7 +10,7 @@ import pytest
 
 from thermodrift.core import registry
 from thermodrift.core.cli import main
-from thermodrift.core.recording import detect_conditions, load_recording
+from thermodrift.core.recording import TEMPERATURE_ROLES, detect_conditions, load_recording
 from thermodrift.plugins.datasets.reference_machines import MACHINES
 
 EXPECTED = {  # name: (temperature-like channels, displacement channels, rows)
@@ -19,7 +19,6 @@ EXPECTED = {  # name: (temperature-like channels, displacement channels, rows)
     "vmc_spindle_s2": (16, 1, 12161),
     "motorized_spindle_s3": (16, 1, 4682),
 }
-TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 
 
 @pytest.fixture(scope="module")

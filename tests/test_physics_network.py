@@ -224,3 +224,26 @@ def test_network_specs_compose_from_hydra():
     baseline = physics.load_network("vmc_spindle_s2", skip_mechanisms=["slow_structural_mode"])
     assert [m["id"] for m in baseline.mechanisms] == ["centrifugal_growth", "preload_feedback"]
     assert "slow_structure" not in baseline.node_names
+
+
+def test_one_displacement_formula_for_simulation_prediction_and_the_observer():
+    """The compiled network's ``displacements`` is the one formula: what ``simulate`` and calibration's
+    ``predict`` report, relative to the first row or to a reference state, with the centrifugal term."""
+    from thermodrift.core.physics.calibration import StateObserver, predict
+    from thermodrift.core.physics.integrate import CompiledNetwork
+
+    assert not hasattr(CompiledNetwork, "outputs") and not hasattr(StateObserver, "displacements")
+    net = two_node().replace(Output("z", "z", {"a": 2.0, "b": 1.0}, centrifugal_um=0.5))
+    scen = scenarios.blocks([scenarios.Block(1.0, N_REF), scenarios.Block(1.0, N_REF / 2)], 60.0,
+                            ambient=scenarios.constant(20.0))
+    comp = CompiledNetwork(net)
+    X = comp.trajectory(scen)
+    speed = scen.frame["speed_rpm"].to_numpy()
+    Y = comp.displacements(X, speed)
+    r2 = (speed / N_REF) ** 2
+    np.testing.assert_allclose(Y[:, 0], (X - X[0]) @ [2.0, 1.0] + 0.5 * r2, atol=1e-12)
+    np.testing.assert_allclose(physics.simulate(net, scen).displacements["z"].to_numpy(), Y[:, 0], atol=1e-9)
+    net_s = dataclasses.replace(net, sensors=(physics.DisplacementSensor("d", "z", noise_um=0.0),))
+    readings, states = predict(net_s, scen, reference=X[0] + 1.0)
+    np.testing.assert_allclose(readings["d"].to_numpy(), Y[:, 0] - 3.0, atol=1e-9)
+    np.testing.assert_allclose(comp.displacements(X[5], speed[5], X[0])[0], Y[5], atol=1e-12)

@@ -85,3 +85,52 @@ def test_plugins_prints_a_table_with_headers_and_a_description_per_component(tmp
     assert "Tree-structured Parzen estimator" in rows["tpe"]
     assert "radiation" in rows["radiation"] and "Base class" not in rows["radiation"]  # not the inherited doc
     assert all(len(ln.split(None, 3)) == 4 for ln in rows.values())  # every component has a description
+
+
+PROBE = ("import sys; from thermodrift.core.cli import main; rc = main({argv!r}); "
+         "print(rc, *sorted(m for m in {heavy!r} if m in sys.modules))")
+HEAVY = ("torch", "mlflow", "hydra", "optuna", "sklearn", "pandas", "thermodrift.plugins.models",
+         "thermodrift.core.cli.run")
+
+
+@pytest.mark.parametrize("argv,message", [(["run", "model=mrl"], "(did you mean 'mlr'?)"),
+                                          (["run", "-m", "n_trial=5"], "(did you mean 'n_trials'?)")])
+def test_a_typo_is_answered_before_plugins_hydra_mlflow_or_torch_load(tmp_path, argv, message):
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true", "THERMODRIFT_CACHE_DIR": str(tmp_path / "cache")}
+    # the first call after an install loads the plugins once and saves their listing (as `run --help` does)
+    first = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
+                           text=True, timeout=300, env=env, cwd=tmp_path)
+    assert first.stdout.split()[0] == "2" and message in first.stderr
+    again = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
+                           text=True, timeout=300, env=env, cwd=tmp_path)
+    assert again.stdout.split() == ["2"], again.stdout  # exit code 2, and none of the heavy modules imported
+    assert again.stderr.count("\n") == 1 and message in again.stderr
+
+
+def test_help_text_is_plain_and_complete(tmp_path):
+    text = run_options.help_text(registry.default())
+    keys = {k.path: k.doc for k in run_options.keys()}
+    assert keys["search_space"].endswith("'search_space={alpha: {type: float, low: 0.01, high: 10, log: true}}'")
+    assert "0 = untuned" in keys["n_trials"]  # a comment continued on the next line is part of the key's
+    assert "(nothing to tune) or\n" not in text and "log: true}}'" in text
+    assert all(len(line) <= 110 for line in text.splitlines() if not line.startswith("warning:"))
+    top = _thermodrift(tmp_path, "--help")
+    plugins = _thermodrift(tmp_path, "plugins")
+    for out in (text, top.stdout, plugins.stdout):
+        assert "``" not in out and ":class:`" not in out and ":func:`" not in out and ":mod:`" not in out
+    assert "The thermodrift command line" in top.stdout
+    described = {ln.split()[1]: ln.split(None, 3)[3] for ln in plugins.stdout.splitlines()[1:]
+                 if len(ln.split(None, 3)) == 4}
+    assert not [n for n, d in described.items() if d.lower().startswith("see ")]  # a pointer is no description
+    assert "LSTM" in described["cnn_lstm"] and "Fourier-KAN" in described["dltk"]
+
+
+def test_plain_renders_restructuredtext_roles_and_literals():
+    from thermodrift.core.cli import plain
+
+    assert plain("The ``thermodrift`` command line") == "The thermodrift command line"
+    assert plain("see :class:`~thermodrift.core.registry.Registry`") == "see Registry"
+    assert plain(":mod:`thermodrift.core.configs` and :func:`load <thermodrift.core.registry.load>`") == \
+        "thermodrift.core.configs and load"
+    assert plain("`thermodrift run` and **all** of `Optuna`_; * = default") == \
+        "thermodrift run and all of Optuna; * = default"

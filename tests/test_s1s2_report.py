@@ -45,3 +45,36 @@ def test_report_regenerates_tables_from_a_sweep(tmp_path):
     assert (s2["residual variance µm²"] >= -1e-9).all() and s2["mean relative error %"].notna().all()
     logged = {a.path for a in mlflow.MlflowClient().list_artifacts(parent.info.run_id, "report")}
     assert {"report/s1_table7.md", "report/s1_table7.csv", "report/s2_mre.md", "report/s2_mre.csv"} <= logged
+
+
+def _fake_sweep(models, selectors=("all",)):
+    """A stand-in for MlflowClient holding one parent and a job per (model, selector): one fold each; every job
+    logged the mlr and persistence baselines, equal across jobs with the same selection."""
+    from types import SimpleNamespace as NS
+
+    jobs = []
+    for i, (model, selector) in enumerate((m, s) for s in selectors for m in models):
+        metrics = {f"fold0/test/{m}": 1.0 + i for m in ("rmse", "mae", "mse")}
+        for b, value in (("mlr", 2.0), ("persistence", 3.0)):
+            metrics.update({f"fold0/baseline/{b}/test/{m}": value + selectors.index(selector)
+                            for m in ("rmse", "mae", "mse")})
+        tags = {"dataset": "d", "model": model, "optimizer": "tpe", "selector": selector, "protocol": "honest",
+                "split": "chronological"}
+        jobs.append(NS(info=NS(run_id=f"r{i}"), data=NS(tags=tags, params={"selected_sensors": selector},
+                                                        metrics=metrics)))
+    return NS(get_run=lambda _id: NS(info=NS(experiment_id="0")), search_runs=lambda ids, query: jobs)
+
+
+def test_a_baseline_shared_by_jobs_is_one_row():
+    from thermodrift.core import report
+
+    rows = report.collect(_fake_sweep(["mlr", "mnr", "bp", "lstm"]), "parent")
+    assert len(rows) == 4 + 2  # the four models, each baseline once (not once per job: 12 rows)
+    for name, (_, build) in report.TABLES.items():
+        table = build(rows)
+        assert not table.duplicated().any(), name
+    assert len(report.s2_table(rows)) == 6
+    # jobs whose selections differ evaluate the baselines on other inputs: those rows stay apart
+    rows = report.collect(_fake_sweep(["mlr", "bp"], selectors=("all", "correlation_top_k")), "parent")
+    assert len(rows) == 4 + 2 * 2
+    assert sorted(report.grid_summary(rows)["source"]) == sorted(["mlr (tpe)", "bp (tpe)", "mlr", "persistence"] * 2)

@@ -18,7 +18,7 @@ ARMS = {"dltk": ("dltk", "rbmox"), "bp": ("bp", "rbmox"), "lstm": ("lstm", "rbmo
 
 
 def compose(*overrides):
-    return compose_config(list(overrides), registry.default().searchpaths)
+    return compose_config(list(overrides), registry.default().searchpaths, registry.default())
 
 
 def test_the_comparison_grid_has_every_arm_under_both_protocols():

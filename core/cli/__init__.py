@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 
 from thermodrift.core.errors import InputError, PluginError
@@ -18,11 +19,14 @@ VERBS = {
     "plugins": ("thermodrift.core.cli.plugins", "List every registered component by kind with its origin."),
     "validate": ("thermodrift.core.cli.validate", "Check a recording (table + manifest) and print a summary."),
     "run": ("thermodrift.core.cli.run", "Run experiments (Hydra overrides; -m for a grid)."),
+    "automl": ("thermodrift.core.cli.automl", "Search selector x features x model family x settings (run's overrides)."),
     "simulate": ("thermodrift.core.cli.simulate", "Write a simulated recording (table + manifest + truth)."),
     "calibrate": ("thermodrift.core.cli.calibrate", "Calibrate a thermal network to a recording."),
     "diagnose": ("thermodrift.core.cli.diagnose", "Find the physics a thermal network leaves out of a recording."),
     "bench": ("thermodrift.core.cli.bench", "Run the benchmarks (samplers, physics)."),
     "report": ("thermodrift.core.cli.report", "The published studies' tables (S1 Table 7, S2) from a sweep in MLflow."),
+    "export": ("thermodrift.core.cli.export", "Write a logged run's model as a data-only compensator package."),
+    "compensate": ("thermodrift.core.cli.compensate", "Stream a recording through a package into CNC values."),
 }
 
 
@@ -34,19 +38,29 @@ def main(argv: list[str] | None = None) -> int:
         from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
         print(run_options.help_text())
         return 0
+    if argv and argv[0] == "automl":  # `thermodrift run automl=default ...`: the same overrides and checks
+        from thermodrift.core.cli import automl as automl_options
+        if "-h" in argv[1:] or "--help" in argv[1:]:
+            print(automl_options.help_text())
+            return 0
+        argv = ["run", *automl_options.as_run(argv[1:])]
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
-        from thermodrift.core import tracking_faults
+        from thermodrift.core import registry, tracking_faults
+        from thermodrift.core.cli import run_options
 
         def run_app() -> int:
-            tracking_faults.precheck(argv[1:])  # a dead server is reported before the slow imports
+            # Before the slow imports (plugins, Hydra, MLflow, torch): a misspelt group option or key is answered
+            # from the saved listing of installed components, as fast as --help, and a dead server is reported.
+            run_options.check_overrides(run_options.split_flags(argv[1:])[1], registry.listing())
+            tracking_faults.precheck(argv[1:])
             from thermodrift.core.cli import run as app
             return app.main(argv[1:])
         return _guard(run_app)
-    parser = argparse.ArgumentParser(prog="thermodrift", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="thermodrift", description=plain(__doc__.splitlines()[0]))
     sub = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
     for verb, (module_name, help_text) in VERBS.items():
-        if verb == "run":
-            sub.add_parser("run", help=help_text, add_help=False)
+        if verb in ("run", "automl"):
+            sub.add_parser(verb, help=help_text, add_help=False)
             continue
         vparser = sub.add_parser(verb, help=help_text, description=help_text)
         vparser.set_defaults(_module=module_name)
@@ -57,6 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     module = importlib.import_module(VERBS[argv[0]][0])
     module.configure(sub.choices[argv[0]])
     args = parser.parse_args(argv)
+    if getattr(args, "no_progress", True) is False and not sys.stderr.isatty():
+        args.no_progress = True  # a bar redrawn in a file or a pipe becomes one long line
     return _guard(lambda: module.run(args))
 
 
@@ -69,6 +85,25 @@ def _guard(fn) -> int:
     except KeyboardInterrupt:
         print("thermodrift: interrupted; completed trials are kept in the Optuna storage", file=sys.stderr)
         return 130
+
+
+# reStructuredText markup of docstrings, in the order it is undone: a role with an explicit title
+# (:func:`title <target>`), a role whose target starts with ~ (the last dotted part is shown), any other role,
+# a literal (``x``), interpreted text or a link (`x`, `x`_), strong emphasis (**x**).
+_RST = [(re.compile(r":[\w:+-]+:`([^`<]*?)\s*<[^`>]*>`"), r"\1"),
+        (re.compile(r":[\w:+-]+:`~(?:[^`]*\.)?([^`.]+)`"), r"\1"),
+        (re.compile(r":[\w:+-]+:`([^`]+)`"), r"\1"),
+        (re.compile(r"``(.+?)``"), r"\1"),
+        (re.compile(r"`([^`]+)`_{0,2}"), r"\1"),
+        (re.compile(r"\*\*(\S(?:.*?\S)?)\*\*"), r"\1")]
+
+
+def plain(text: str) -> str:
+    """``text`` (a docstring line or a config comment) with its reStructuredText markup rendered as plain text,
+    for help output: ``:class:`~thermodrift.core.registry.Registry``` -> ``Registry``, ````x```` -> ``x``."""
+    for pattern, repl in _RST:
+        text = pattern.sub(repl, text)
+    return text
 
 
 def error_line(text: str) -> None:

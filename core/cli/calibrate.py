@@ -85,8 +85,10 @@ def run(args: argparse.Namespace) -> int:
         mismatch.plot_before_after(result, out / "before_after.png", mm)
         steps.update()
         if args.tracking_uri:
+            from thermodrift.core import tracking
+
             steps.set_description("calibrate: logging")
-            log_to_mlflow(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
+            tracking.log_calibration(result, mm, out, args.tracking_uri, run_name=f"calibrate {Path(args.table).name}")
         steps.update()
     _print_summary(result, mm, out)
     return 0
@@ -118,31 +120,3 @@ def _print_summary(result, mm, out: Path) -> None:
     for name, row in mm.by_window().head(5).iterrows():
         print(f"  {row['share']:6.1%}  {name}  (mostly {row['top_channel']})")
     print(f"wrote {out}")
-
-
-def log_to_mlflow(result, mm, out_dir: str | Path, tracking_uri: str | None,
-                  run_name: str = "calibrate", experiment: str = "calibrate") -> str:
-    """Log a calibration (``CalibrationResult``), its mismatch map (``MismatchMap``: top windows as tags and
-    shares), RMSEs and objective, and every file in ``out_dir`` to an MLflow run; returns the run id."""
-    import mlflow
-    import numpy as np
-
-    from thermodrift.core import tracking
-
-    tracking.setup(tracking_uri, experiment)
-    with mlflow.start_run(run_name=run_name) as run:
-        mlflow.set_tags({"network": result.network.name, "kind": "calibration"})
-        mlflow.log_params({"network": result.network.name, "free_parameters": len(result.estimates),
-                           "confidence_level": result.level, "stopped": result.stopped[:250]})
-        metrics = {"objective/initial": result.cost_initial, "objective/final": result.cost,
-                   "seconds": result.seconds, "unidentifiable": float(len(result.unidentifiable))}
-        for c in result.rmse:
-            metrics[tracking.metric_key("rmse", c)] = result.rmse[c]
-            metrics[tracking.metric_key("rmse_initial", c)] = result.rmse_initial[c]
-        top = mm.by_window().head(5)
-        for rank, (name, row) in enumerate(top.iterrows(), start=1):
-            metrics[f"mismatch/top{rank}_share"] = float(row["share"])
-            mlflow.set_tag(f"mismatch_top{rank}", f"{name} ({row['top_channel']})"[:250])
-        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
-        mlflow.log_artifacts(str(out_dir))
-        return run.info.run_id

@@ -53,7 +53,9 @@ def run(args: argparse.Namespace) -> int:
     command = "thermodrift " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else ""
     doc = report.write(d, out, command)
     if args.tracking_uri:
-        report.log_to_mlflow(d, doc, out, args.tracking_uri, f"diagnose {Path(args.table).name}", args.seed)
+        from thermodrift.core import tracking
+
+        tracking.log_diagnosis(d, doc, out, args.tracking_uri, f"diagnose {Path(args.table).name}", args.seed)
     print(doc["verdict"])
     for f in doc["findings"]:
         print(f"  found {f['mechanism']} (confidence {f['confidence']:.2f}): {f['parameters']}")

@@ -8,6 +8,7 @@ import json
 import sys
 
 from thermodrift.core import registry
+from thermodrift.core.cli import plain
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -15,14 +16,14 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def describe(component: registry.Component) -> str:
-    """One line: the factory's ``description`` attribute, else the first line of its own docstring (not one
-    inherited from a base class), else of its module's docstring; '' without any."""
+    """One line of plain text: the factory's ``description`` attribute, else the first line of its own docstring
+    (not one inherited from a base class), else of its module's docstring; '' without any."""
     factory = component.factory
     own = factory.__dict__.get("__doc__") if isinstance(factory, type) else getattr(factory, "__doc__", None)
     for text in (getattr(factory, "description", None), own,
                  getattr(sys.modules.get(getattr(factory, "__module__", "")), "__doc__", None)):
         if isinstance(text, str) and text.strip():
-            return inspect.cleandoc(text).splitlines()[0].replace("``", "").strip()
+            return plain(inspect.cleandoc(text).splitlines()[0]).strip()
     return ""
 
 

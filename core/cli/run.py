@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import datetime
 import json
+import logging
 import os
 import sys
+import time
 import uuid
 from pathlib import Path
 
@@ -29,6 +31,11 @@ from thermodrift.core.study import Job, JobSpec
 
 SWEEP_ENV = "THERMODRIFT_SWEEP_ID"
 _STATE = {"composed": False}
+# The job's lines (what it prints, its errors) also go to the files of Hydra's job logging (outputs/<id>/run.log,
+# multirun/<id>/<n>/run.log), not to its console handler: the console already has them.
+LOG = logging.getLogger("thermodrift.job")
+LOG.propagate = False
+PROGRESS_EVERY_S = 30.0  # without a terminal, one progress line at most this often
 
 
 class Lifecycle(tracking.SweepRun):
@@ -39,8 +46,11 @@ class Lifecycle(tracking.SweepRun):
         _STATE["composed"] = True
 
     def on_multirun_end(self, config, **kwargs) -> None:
+        parent = os.environ.get(tracking.PARENT_ENV)
         try:
             super().on_multirun_end(config, **kwargs)
+            if parent:
+                print(sweep_report(mlflow.MlflowClient().get_run(parent), config), flush=True)
         except tracking_faults.failures() as exc:
             jobs = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
                     for p in Path(config.hydra.sweep.dir).glob("*/job.json")}
@@ -63,6 +73,21 @@ class Lifecycle(tracking.SweepRun):
         with schema.exclusive(config.tracking.uri):
             super().on_multirun_start(config, **kwargs)
         mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
+
+
+def sweep_report(parent, config) -> str:
+    """The grid's last lines: its sweep id and folder, and where its report was logged (or why it was not)."""
+    sweep = parent.data.tags.get("sweep_id") or parent.info.run_id
+    lines = [f"sweep {sweep}: job folders in {config.hydra.sweep.dir}"]
+    error = parent.data.tags.get("report_error")
+    if error:
+        lines.append(f"report not built: {error}")
+    else:
+        lines.append(f"report (report.md, tables as .md and .csv) logged on the parent run: "
+                     f"{parent.info.artifact_uri}/report/")
+    uri = config.tracking.uri or tracking.DEFAULT_URI
+    lines.append(f"write it here: thermodrift report {sweep} --tracking-uri {uri} (into reports/{sweep}/)")
+    return "\n".join(lines)
 
 
 def spec_from_config(cfg: DictConfig) -> JobSpec:
@@ -93,6 +118,7 @@ def spec_from_config(cfg: DictConfig) -> JobSpec:
 @hydra.main(version_base="1.3", config_path="pkg://thermodrift.conf", config_name="config")
 def _task(cfg: DictConfig) -> float | None:
     multirun = HydraConfig.get().mode == RunMode.MULTIRUN
+    _log_to_job_files()
     try:
         spec = spec_from_config(cfg)
     except (InputError, PluginError, KeyError) as exc:
@@ -102,7 +128,7 @@ def _task(cfg: DictConfig) -> float | None:
     try:
         tracking_faults.check(cfg.tracking.uri)
         schema.retrying(lambda: tracking.setup(cfg.tracking.uri, cfg.tracking.experiment), cfg.tracking.uri)
-        value = _job(cfg, spec, multirun)
+        value = (_automl_job if cfg.get("automl") else _job)(cfg, spec, multirun)
     except InputError as exc:  # the server was down when this job started
         _record_job(study_name, None)
         return _bad_input(exc, multirun)
@@ -111,6 +137,11 @@ def _task(cfg: DictConfig) -> float | None:
         value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
     _record_job(study_name, value)
     return value
+
+
+def _automl_job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
+    from thermodrift.core.cli import automl  # `thermodrift automl`, or `run automl=default`
+    return automl.job(cfg, spec, multirun, _bad_input)
 
 
 def _record_job(study_name: str, value: float | None) -> None:
@@ -136,8 +167,13 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
             mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
         logger = tracking.TrialLogger(run.info.run_id)
         trial_log = tracking_faults.BufferedCallback(logger)
+        callbacks = [trial_log]
+        if spec.progress and not sys.stderr.isatty():  # a bar in a file or pipe is one long line: lines instead
+            spec.progress = False
+            callbacks.append(ProgressLines(spec.n_trials))
+        LOG.info("%s: study %s, MLflow run %s", run_name, study_name, run.info.run_id)
         try:
-            result = Job(spec, callbacks=[trial_log], say=lambda line: print(line, flush=True)).run()
+            result = Job(spec, callbacks=callbacks, say=say).run()
         except (InputError, PluginError) as exc:
             mlflow.set_tag("error", str(exc)[:5000])
             mlflow.end_run(status="FAILED")
@@ -149,8 +185,43 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
                 logger.replay(fold.study, fold.trials_before)
         mlflow.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
-    print(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI), flush=True)
+    say(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI))
     return result.valid_rmse
+
+
+def say(text: str) -> None:
+    """A line of the job for the console (stdout) and its log file."""
+    print(text, flush=True)
+    LOG.info(text.strip("\n"))
+
+
+def _log_to_job_files() -> None:
+    """Route :data:`LOG` to the file handlers Hydra's job logging has just set up for this job (none when the
+    user turned job logging off), and keep matplotlib's font-cache INFO lines out of them and the console."""
+    LOG.handlers = [h for h in logging.getLogger().handlers if isinstance(h, logging.FileHandler)]
+    LOG.setLevel(logging.INFO)
+    logging.getLogger("matplotlib").setLevel(logging.WARNING)
+
+
+class ProgressLines:
+    """Optuna callback for output that is not a terminal: a line on the finished trials at most every
+    :data:`PROGRESS_EVERY_S` s and when the budget is met, on stderr where the bar would be (and in the log)."""
+
+    def __init__(self, n_trials: int) -> None:
+        self.n_trials = n_trials
+        self.last = -float("inf")
+
+    def __call__(self, study, trial) -> None:
+        finished = [t for t in study.get_trials(deepcopy=False) if t.state.is_finished()]
+        now = time.monotonic()
+        if now - self.last < PROGRESS_EVERY_S and len(finished) < self.n_trials:
+            return
+        self.last = now
+        best = min((t.value for t in finished if t.value is not None), default=None)
+        line = (f"{study.study_name}: {len(finished)} of {self.n_trials} trials finished"
+                + (f", best inner validation RMSE {best:.3f} µm" if best is not None else ""))
+        print(line, file=sys.stderr, flush=True)
+        LOG.info(line)
 
 
 def job_report(result, run, uri: str) -> str:
@@ -195,33 +266,13 @@ def _drop_active_runs() -> None:
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:
-    """One line on stderr; a single run exits 2, a grid job is recorded as failed and the grid goes on."""
+    """One line on stderr (and in the job's log); a single run exits 2, a grid job is recorded as failed and the
+    grid goes on."""
     error_line(f"thermodrift: error: {exc}")
+    LOG.error("%s", exc)
     if not multirun:
         raise SystemExit(2)
     return None
-
-
-# Hydra's options that take a value (`--cfg job`, `-cn name`, ...).
-_VALUED = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn", "--config-dir", "-cd",
-           "--experimental-rerun", "--info", "-i", "--shell-completion", "-sc"}
-
-
-def _split_flags(args: list[str]) -> tuple[list[str], list[str]]:
-    """Hydra's options (with their values) and the overrides. Hydra's argparse reads options only before the
-    overrides; users type them anywhere (`thermodrift run model=bp -m`), so they are moved first."""
-    flags, rest, i = [], [], 0
-    while i < len(args):
-        arg = args[i]
-        if arg.startswith("-"):
-            flags.append(arg)
-            if arg in _VALUED and i + 1 < len(args) and not args[i + 1].startswith("-") and "=" not in args[i + 1]:
-                flags.append(args[i + 1])
-                i += 1
-        else:
-            rest.append(arg)
-        i += 1
-    return flags, rest
 
 
 def main(overrides: list[str]) -> int:
@@ -230,8 +281,8 @@ def main(overrides: list[str]) -> int:
     os.environ.setdefault(SWEEP_ENV, datetime.datetime.now().strftime("%Y-%m-%d_%H-%M-%S_")
                           + uuid.uuid4().hex[:6])
     reg = registry.default()
-    flags, rest = _split_flags(overrides)
-    run_options.check_overrides(rest, reg)  # a typo gets one line with the closest right name, before Hydra
+    flags, rest = run_options.split_flags(overrides)
+    run_options.check_overrides(rest, reg)  # with the plugins loaded: a component's parameter names too
     for register in reg.hydra_plugins:  # e.g. the thermodrift sweeper; registering is idempotent
         register()
     for plugin, error in reg.failures.items():  # `thermodrift plugins` lists them too

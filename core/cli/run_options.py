@@ -18,6 +18,7 @@ from typing import Any
 import yaml
 
 from thermodrift.core import configs, registry
+from thermodrift.core.cli import plain
 from thermodrift.core.errors import InputError
 
 # group -> (registry kind or None for YAML-only groups, what the group chooses)
@@ -28,10 +29,13 @@ GROUPS = {
     "model": ("model", "the thermal-error model, °C -> µm, tuned by Optuna"),
     "optimizer": ("optimizer", "the Optuna sampler that tunes the model"),
     "experiment": (None, "a preset that may override any key"),
+    "automl": (None, "search across families instead of one model (thermodrift automl; automl.budget_fits=N)"),
 }
 # The keys under a group's node (`model.params.alpha=0.1`); experiment presets are global.
 GROUP_KEYS = {"dataset": ["name", "params"], "split": ["kind", "params"], "selector": ["name", "params"],
-              "model": ["name", "params", "search_space"], "optimizer": ["name", "params"]}
+              "model": ["name", "params", "search_space"], "optimizer": ["name", "params"],
+              "automl": ["budget_fits", "timeout_s", "max_folds", "tpe_families", "top_rung", "ensemble_pool",
+                         "ensemble_steps", "families"]}
 EXAMPLES = """\
   thermodrift run                                    demo_spindle, mlr tuned by tpe, 20 trials
   thermodrift run model=bp n_trials=50               another model, a larger budget
@@ -42,6 +46,8 @@ EXAMPLES = """\
   thermodrift run model=bp --cfg job                 print the composed config, run nothing
 """
 _COMMENTED = re.compile(r"^(?P<indent> *)(?P<key>[A-Za-z_]\w*):(?P<value>.*?)(?:\s+#\s*(?P<doc>.*))?$")
+_WIDTH = 110  # columns of the help text
+_CONTINUED = re.compile(r"^ +#(?P<doc>.*)$")
 
 
 @dataclass(frozen=True)
@@ -58,20 +64,26 @@ def _config_text() -> str:
 
 
 def keys() -> list[Key]:
-    """The keys of ``conf/config.yaml`` (sections' keys as ``section.key``) with their comments; the Hydra
-    block and the defaults list are left out."""
-    out, section = [], None
+    """The keys of ``conf/config.yaml`` (sections' keys as ``section.key``) with their comments (a comment
+    continued on indented comment lines below it included); the Hydra block and the defaults list are left
+    out."""
+    out, section, last = [], None, None
     for line in _config_text().splitlines():
         m = _COMMENTED.match(line)
+        more = _CONTINUED.match(line)
+        if more and last is not None:  # the comment of the key above, continued
+            out[-1] = last = Key(last.path, last.default, f"{last.doc} {more['doc'].strip()}".strip())
+            continue
+        last = None
         if not m:
             continue
         key, value, doc = m["key"], m["value"].strip(), (m["doc"] or "").strip()
         if not m["indent"]:
             section = key if not value else None
             if value and key not in ("defaults",):
-                out.append(Key(key, value, doc))
+                out.append(last := Key(key, value, doc))
         elif section and section != "hydra" and len(m["indent"]) == 2:
-            out.append(Key(f"{section}.{key}", value, doc))
+            out.append(last := Key(f"{section}.{key}", value, doc))
     return out
 
 
@@ -102,20 +114,46 @@ def help_text(reg: registry.Registry | registry.Listing | None = None) -> str:
     for group, (_, doc) in GROUPS.items():
         opts = [f"{o}*" if o == chosen.get(group) else o for o in options(group, reg)]
         lines.append(f"  {group:<11}{doc}")
-        lines += textwrap.wrap(" ".join(opts), width=100, initial_indent=" " * 13, subsequent_indent=" " * 13)
+        lines += textwrap.wrap(" ".join(opts), width=_WIDTH, initial_indent=" " * 13, subsequent_indent=" " * 13)
     lines += ["", "keys (KEY=VALUE; a group's settings as GROUP.params.NAME=VALUE, e.g. selector.params.k=6):"]
     width = max(len(k.path) for k in keys()) + 2
     for k in keys():
-        lines.append(f"  {k.path:<{width}}{k.default:<28} {k.doc}".rstrip())
+        head = f"  {k.path:<{width}}{k.default:<28} "
+        lines += textwrap.wrap(plain(k.doc), width=_WIDTH, initial_indent=head, subsequent_indent=" " * len(head),
+                               break_on_hyphens=False) or [head.rstrip()]
     lines += ["", "Hydra options: -m/--multirun, --cfg job|hydra|all, --resolve, --info, -cn/-cp, --hydra-help."]
     lines += [f"warning: plugin {key} failed to load and is left out: {error}" for key, error in reg.failures.items()]
     return "\n".join(lines)
 
 
-def check_overrides(overrides: list[str], reg: registry.Registry) -> None:
+# Hydra's options that take a value (`--cfg job`, `-cn name`, ...).
+_VALUED = {"--cfg", "-c", "--package", "-p", "--config-path", "-cp", "--config-name", "-cn", "--config-dir", "-cd",
+           "--experimental-rerun", "--info", "-i", "--shell-completion", "-sc"}
+
+
+def split_flags(args: list[str]) -> tuple[list[str], list[str]]:
+    """Hydra's options (with their values) and the overrides. Hydra's argparse reads options only before the
+    overrides; users type them anywhere (`thermodrift run model=bp -m`), so they are moved first."""
+    flags, rest, i = [], [], 0
+    while i < len(args):
+        arg = args[i]
+        if arg.startswith("-"):
+            flags.append(arg)
+            if arg in _VALUED and i + 1 < len(args) and not args[i + 1].startswith("-") and "=" not in args[i + 1]:
+                flags.append(args[i + 1])
+                i += 1
+        else:
+            rest.append(arg)
+        i += 1
+    return flags, rest
+
+
+def check_overrides(overrides: list[str], reg: registry.Registry | registry.Listing) -> None:
     """Raise a one-line :class:`InputError` for an unknown group option or an unknown key, with the closest
     right one ("did you mean 'mlr'?") and the choices. Additions (``+key``), deletions (``~key``), Hydra's
-    own settings and sweep expressions (``range(...)``, globs) are left to Hydra."""
+    own settings and sweep expressions (``range(...)``, globs) are left to Hydra. With a
+    :class:`~thermodrift.core.registry.Listing` (names only, no plugin imported) a component's parameter names
+    are not checked; with the loaded :class:`~thermodrift.core.registry.Registry` they are."""
     groups = {g: options(g, reg) for g in GROUPS}
     given = {k: v for k, v in (o.split("=", 1) for o in overrides if "=" in o) if k in groups}
     chosen = {**defaults(), **_preset_groups(given.get("experiment", defaults().get("experiment"))), **given}
@@ -146,7 +184,8 @@ def check_overrides(overrides: list[str], reg: registry.Registry) -> None:
             _check_group_key(path, override, chosen.get(path[0]), reg)
 
 
-def _check_group_key(path: list[str], override: str, option: str | None, reg: registry.Registry) -> None:
+def _check_group_key(path: list[str], override: str, option: str | None,
+                     reg: registry.Registry | registry.Listing) -> None:
     group, kind, allowed = path[0], GROUPS[path[0]][0], GROUP_KEYS.get(path[0], [])
     if path[1] not in allowed:
         raise InputError(f"{override}: unknown key {'.'.join(path[:2])!r}"
@@ -160,7 +199,7 @@ def _check_group_key(path: list[str], override: str, option: str | None, reg: re
                          f"its parameters: {', '.join(sorted(params)) or 'none'}")
 
 
-def _component_name(group: str, option: str, reg: registry.Registry) -> str:
+def _component_name(group: str, option: str, reg: registry.Registry | registry.Listing) -> str:
     """The registered name behind an option: a YAML's ``name`` (``pso_s1`` -> ``pso``), else the option."""
     found = configs.yaml_files(reg.searchpaths, group).get(option)
     if found is None:
@@ -168,8 +207,11 @@ def _component_name(group: str, option: str, reg: registry.Registry) -> str:
     return (yaml.safe_load(found.read_text(encoding="utf-8")) or {}).get("name", option)
 
 
-def _constructor_params(kind: str, name: str, reg: registry.Registry) -> set[str] | None:
-    """The keyword parameters of a component's factory; None when unknown or open (``**kwargs``)."""
+def _constructor_params(kind: str, name: str, reg: registry.Registry | registry.Listing) -> set[str] | None:
+    """The keyword parameters of a component's factory; None when unknown, open (``**kwargs``) or not loaded
+    (a :class:`~thermodrift.core.registry.Listing` holds names only)."""
+    if not isinstance(reg, registry.Registry):
+        return None
     try:
         signature = inspect.signature(reg.get(kind, name).factory)
     except Exception:  # an unknown name is reported by Hydra or the job; an opaque factory is not checked

@@ -17,7 +17,7 @@ Public API::
     net2 = net.with_values({"nodes.shaft.capacity_J_K": 4000.0})   # calibration hook (new network)
     comp = physics.CompiledNetwork(net2)                 # reuse across simulations of one parameter set
     X = comp.trajectory(scen)                            # (samples, nodes) °C as an array: the fitting path
-    Y = comp.outputs(X, scen.frame["speed_rpm"])         # (samples, outputs) µm
+    Y = comp.displacements(X, scen.frame["speed_rpm"])         # (samples, outputs) µm
     comp.time_constants_s(speed_rpm=0)
 
     mech = registry.create("mechanism", "slow_structural_mode")    # see physics.Mechanism

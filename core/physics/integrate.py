@@ -45,7 +45,7 @@ class CompiledNetwork:
 
     Build one per parameter set and reuse it: (Φ, Γ) of every operating level met so far are cached, so
     re-simulating the same programme (different initial state, a sub-range) skips the matrix exponentials.
-    ``trajectory`` gives node temperatures as an array, ``outputs`` the displacements — no pandas, for fitting.
+    ``trajectory`` gives node temperatures as an array, ``displacements`` the outputs in µm — no pandas, for fitting.
     """
 
     def __init__(self, network: Network):
@@ -164,10 +164,14 @@ class CompiledNetwork:
                 X[a + 1:b + 1] = self._propagate(key, X[a], U[a:b] @ Gam.T)
         return X
 
-    def outputs(self, X: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
-        """Displacements (µm, samples × outputs) of trajectory ``X`` relative to its first row."""
-        r2 = (np.asarray(speed_rpm, dtype=float) / self.network.reference_speed_rpm) ** 2
-        return (X - X[0]) @ self.output_matrix.T + r2[:, None] * self.centrifugal_um[None, :]
+    def displacements(self, X: np.ndarray, speed_rpm: np.ndarray, reference: np.ndarray | None = None) -> np.ndarray:
+        """Output displacements (µm, samples × outputs) of node temperatures ``X`` (°C, samples × nodes, or one
+        row) at ``speed_rpm``: thermal growth relative to the node temperatures ``reference`` (default: the first
+        row of ``X``) plus the centrifugal term."""
+        X = np.atleast_2d(X)
+        r2 = np.atleast_1d(np.asarray(speed_rpm, dtype=float) / self.network.reference_speed_rpm) ** 2
+        ref = X[0] if reference is None else reference
+        return (X - ref) @ self.output_matrix.T + r2[:, None] * self.centrifugal_um[None, :]
 
     def steady_state(self, speed_rpm: float, coolant_flow: float, u: np.ndarray) -> np.ndarray:
         """Temperatures (°C) at which the network is in equilibrium under constant inputs ``u``."""
@@ -278,7 +282,7 @@ def simulate(network: Network | CompiledNetwork, scenario: Scenario, dt_s: float
     X = comp.trajectory(scenario, initial=initial, method=method)
     index = scenario.frame.index
     temps = pd.DataFrame(X, index=index, columns=comp.names)
-    Y = comp.outputs(X, scenario.frame["speed_rpm"].to_numpy())
+    Y = comp.displacements(X, scenario.frame["speed_rpm"].to_numpy())
     disp = pd.DataFrame(Y, index=index, columns=[o.name for o in comp.network.outputs])
     return SimulationResult(comp.network, scenario, temps, disp)
 

@@ -18,12 +18,14 @@ What the missing-physics finder needs besides ``apply`` (checked by ``thermodrif
     type(mech).drivers                          # recording roles it needs, e.g. ("cutting_power",)
     type(mech).missing_drivers(recording)       # None, or why it cannot act here ("no cutting_power channel")
     type(mech).places(net)                      # option sets, one per place it can act (node, edge, channel)
-    net2, free = mech.declare(net, **params)    # applied network + its FreeParam list (paths, bounds, scale)
+    net2, free = mech.declare(net, **params)    # applied network + its FreeParameter list (paths, bounds, scale)
 
-A :class:`FreeParam` names a mechanism parameter, the network paths it sets (network value = factor·value +
-offset), its bounds and start, and its scale: ``log`` (positive, searched in log space), ``linear`` or
-``projected`` (enters the outputs linearly, so calibration solves it by least squares). :meth:`Mechanism.declare`
-checks every path exists and that the bounds stay inside the network field's physical limits.
+A mechanism's free parameters are :class:`~thermodrift.core.physics.calibration.FreeParameter` s, the type
+calibration searches: a parameter in the mechanism's unit, the network paths it sets (network value =
+factor·value + offset), its bounds and start, and its scale: ``log`` (positive network value, searched in log
+space), ``linear`` or ``projected`` (enters the outputs linearly: calibration's linear step solves it with the
+sensitivities, so it is not searched). :meth:`Mechanism.declare` checks every path exists and that the bounds stay
+inside the network field's physical limits.
 
 Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options``, ``drivers`` and
 ``signature`` (the residual signature a missing instance leaves, used as evidence text) and ``laws`` (the
@@ -43,32 +45,9 @@ from typing import Any, ClassVar, Sequence
 import numpy as np
 
 from thermodrift.core.errors import InputError
+from thermodrift.core.physics.calibration.free import FreeParameter
 from thermodrift.core.physics.network import Network, iter_elements
 from thermodrift.core.physics.spec import plain
-
-
-SCALES = ("log", "linear", "projected")
-
-
-@dataclass(frozen=True)
-class FreeParam:
-    """A free parameter a mechanism introduces: ``paths`` in the network take ``factor·value + offset``."""
-
-    name: str
-    paths: tuple[str, ...]
-    value: float
-    low: float
-    high: float
-    unit: str
-    scale: str = "log"
-    factor: float = 1.0
-    offset: float = 0.0
-
-    def network_value(self, value: float) -> float:
-        return self.factor * value + self.offset
-
-    def from_network(self, network_value: float) -> float:
-        return (network_value - self.offset) / self.factor
 
 
 @dataclass(frozen=True)
@@ -167,7 +146,7 @@ class Mechanism:
         """Option sets, one per place in ``network`` where the mechanism can act (default: its default place)."""
         return [{}]
 
-    def declare(self, network: Network, **params: float) -> tuple[Network, list[FreeParam]]:
+    def declare(self, network: Network, **params: float) -> tuple[Network, list[FreeParameter]]:
         """:meth:`apply` plus the free parameters it introduced, checked against the network's field limits."""
         out = self.apply(network, **params)
         values = {**self.defaults(), **{k: float(v) for k, v in params.items()}}
@@ -175,7 +154,7 @@ class Mechanism:
         check_free(out, free, self.id)
         return out, free
 
-    def _declare(self, before: Network, after: Network, p: dict[str, float], o: dict[str, Any]) -> list[FreeParam]:
+    def _declare(self, before: Network, after: Network, p: dict[str, float], o: dict[str, Any]) -> list[FreeParameter]:
         raise NotImplementedError
 
 
@@ -231,23 +210,17 @@ def field_limits(network: Network, path: str) -> tuple[float, float]:
     raise InputError(f"network {network.name!r} has no parameter {path!r}")
 
 
-def check_free(network: Network, free: Sequence[FreeParam], mechanism: str) -> None:
-    """Every path exists, low ≤ value ≤ high, log parameters are positive, and the network values the bounds
-    give stay inside each field's physical limits; InputError naming the parameter otherwise."""
+def check_free(network: Network, free: Sequence[FreeParameter], mechanism: str) -> None:
+    """Every path exists and the network values the bounds give stay inside each field's physical limits;
+    InputError naming the parameter otherwise (:class:`FreeParameter` itself checks start, bounds and scale)."""
     known = network.parameters()
     for fp in free:
         where = f"mechanism {mechanism!r}: free parameter {fp.name!r}"
-        if fp.scale not in SCALES:
-            raise InputError(f"{where} has scale {fp.scale!r}", hint=f"use one of {', '.join(SCALES)}")
-        if not fp.low <= fp.value <= fp.high:
-            raise InputError(f"{where}: start {fp.value:g} is outside [{fp.low:g}, {fp.high:g}] {fp.unit}")
         for path in fp.paths:
             if path not in known:
                 raise InputError(f"{where}: network {network.name!r} has no parameter {path!r}")
             lo, hi = field_limits(network, path)
-            ends = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-            if fp.scale == "log" and ends[0] <= 0:
-                raise InputError(f"{where}: a log-scale parameter needs positive bounds, got {ends[0]:g} at {path}")
+            ends = (fp.network_value(fp.low), fp.network_value(fp.high))
             if ends[0] < lo - 1e-12 or ends[1] > hi + 1e-12:
                 raise InputError(f"{where}: bounds give {path} in [{ends[0]:g}, {ends[1]:g}], outside its "
                                  f"limits [{lo:g}, {hi:g}]")

@@ -1,6 +1,7 @@
 """The mismatch map: where, after calibration, the model still disagrees with the recording.
 
-The recording is cut into windows from its speed schedule (:func:`schedule_windows`): each speed change opens
+The recording is cut into windows from its speed schedule
+(:func:`thermodrift.core.recording.schedule_windows`, on the one speed segmenter): each speed change opens
 a short ``step`` window (the first ``step_s`` seconds, where instantaneous growth, sensor lag and fast modes
 show), followed by the rest of the block as ``running`` or ``stopped``. For every channel and window the map
 holds the share of the calibration objective (the sum of squared residuals divided by each channel's weight σ,
@@ -11,7 +12,8 @@ physics finder starts from the top of that list.
 
 Outputs: :meth:`MismatchMap.to_dict` (``mismatch.json``), :func:`plot_heatmap` (time × channel PNG),
 :func:`plot_before_after` (measured, initial guess, calibrated). Logging them is the verb's
-(``thermodrift calibrate``, :mod:`thermodrift.core.cli.calibrate`); this module only computes and draws.
+(``thermodrift calibrate``, through :func:`thermodrift.core.tracking.log_calibration`); this module only
+computes and draws.
 """
 
 from __future__ import annotations
@@ -24,42 +26,7 @@ import numpy as np
 import pandas as pd
 
 from thermodrift.core.physics.calibration import CalibrationResult
-from thermodrift.core.recording import speed_segments
-
-STEP_WINDOW_S = 900.0
-
-
-@dataclass(frozen=True)
-class Window:
-    """A time window of the schedule: ``kind`` is step, running or stopped; times in s (half-open)."""
-
-    name: str
-    kind: str
-    start_s: float
-    end_s: float
-    speed_rpm: float
-
-
-def schedule_windows(time_s: np.ndarray, speed_rpm: np.ndarray, step_s: float = STEP_WINDOW_S) -> list[Window]:
-    """Windows of a speed schedule: per constant-speed block a ``step`` window after each change, then the rest."""
-    t = np.asarray(time_s, dtype=float)
-    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    end_of = lambda i: float(t[i]) if i < len(t) else float(t[-1] + dt)  # noqa: E731 (half-open ends)
-    out: list[Window] = []
-    prev = None
-    for a, b, level in speed_segments(t, speed_rpm):
-        label = f"{level:g} rpm" if level > 0 else "stop"
-        kind = "running" if level > 0 else "stopped"
-        start_h = t[a] / 3600.0
-        if prev is not None:
-            cut = min(int(np.searchsorted(t, t[a] + step_s)), b)
-            out.append(Window(f"step {prev:g}→{level:g} rpm at {start_h:.2f} h", "step", float(t[a]), end_of(cut),
-                              level))
-            a = cut
-        if a < b:
-            out.append(Window(f"{label} from {t[a] / 3600.0:.2f} h", kind, float(t[a]), end_of(b), level))
-        prev = level
-    return out
+from thermodrift.core.recording import STEP_WINDOW_S, Window, schedule_windows
 
 
 @dataclass

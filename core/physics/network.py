@@ -35,7 +35,8 @@ from dataclasses import dataclass, field
 from typing import Any, Iterable, Mapping
 
 from thermodrift.core.errors import InputError
-from thermodrift.core.physics.sensors import TEMPERATURE_ROLES, DisplacementSensor, Sensor, TemperatureSensor
+from thermodrift.core.physics.sensors import DisplacementSensor, Sensor, TemperatureSensor
+from thermodrift.core.recording import TEMPERATURE_ROLES
 
 BOUNDARIES = ("ambient", "coolant")
 GROUPS = ("bearing", "shaft", "motor", "housing", "structure", "coolant", "table", "screw", "tool")

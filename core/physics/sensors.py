@@ -14,8 +14,6 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
-
 
 def _meta(unit: str, low: float | None = None, doc: str = "") -> dict:
     return {"unit": unit, "min": low, "doc": doc}

@@ -2,13 +2,16 @@
 
 Three modules, one job each: :mod:`~thermodrift.core.recording.types` (the :class:`Recording` type and the
 roles), :mod:`~thermodrift.core.recording.conditions` (working conditions from the speed schedule: the one
-speed segmenter) and :mod:`~thermodrift.core.recording.loading` (reading a table and its manifest, with
-validation). Every public name is importable from here.
+speed segmenter, and the schedule windows built on it) and :mod:`~thermodrift.core.recording.loading`
+(reading a table and its manifest, with validation). Every public name is importable from here.
 """
 
-from thermodrift.core.recording.conditions import detect_conditions, speed_segments
-from thermodrift.core.recording.loading import MAX_NAN_RUN, MIN_ROWS, PlausibilityWarning, load_recording
+from thermodrift.core.recording.conditions import (STEP_WINDOW_S, Window, detect_conditions, schedule_windows,
+                                                 speed_segments)
+from thermodrift.core.recording.loading import (MAX_NAN_RUN, MIN_ROWS, TIME_UNITS, UNITS, Manifest, PlausibilityWarning,
+                                              load_recording, read_manifest)
 from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording
 
-__all__ = ["ROLES", "TEMPERATURE_ROLES", "TIME_INDEX", "MIN_ROWS", "MAX_NAN_RUN", "Channel", "Recording",
-           "PlausibilityWarning", "detect_conditions", "load_recording", "speed_segments"]
+__all__ = ["ROLES", "TEMPERATURE_ROLES", "TIME_INDEX", "MIN_ROWS", "MAX_NAN_RUN", "UNITS", "TIME_UNITS", "Manifest", "read_manifest", "STEP_WINDOW_S", "Channel",
+           "Recording", "Window", "PlausibilityWarning", "detect_conditions", "load_recording", "schedule_windows",
+           "speed_segments"]

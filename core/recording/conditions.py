@@ -1,8 +1,14 @@
-"""Working conditions from the speed schedule: the project's one speed segmenter and what is built on it."""
+"""Working conditions from the speed schedule: the project's one speed segmenter and what is built on it.
+
+:func:`speed_segments` cuts a speed schedule into constant-speed stretches; :func:`detect_conditions` labels
+them as working conditions and :func:`schedule_windows` cuts them into step / running / stopped
+:class:`Window` s, so conditions, the mismatch map and the missing-physics finder see one recording alike.
+"""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -61,6 +67,51 @@ def detect_conditions(time_s: np.ndarray, speed_rpm: np.ndarray) -> np.ndarray:
             current = f"c{k:02d}_{_LABEL_STEP_RPM * round(seg_level / _LABEL_STEP_RPM)}rpm"
         labels[a:b] = current
     return labels
+
+
+STEP_WINDOW_S = 900.0  # s: the step window after a speed change, where instant growth, lags and fast modes show
+
+
+@dataclass(frozen=True)
+class Window:
+    """A time window [start_s, end_s) in s of a recording, cut by one driver.
+
+    ``driver`` is the role whose signal defines it (speed, cutting_power, ambient, ...) and ``kind`` what it
+    holds (speed: ``step``, ``running``, ``stopped``); ``speed_rpm`` is the level of a speed window, else None.
+    """
+
+    name: str
+    kind: str
+    start_s: float
+    end_s: float
+    driver: str = "speed"
+    speed_rpm: float | None = None
+
+    def mask(self, time_s: np.ndarray) -> np.ndarray:
+        """True for the times (s) inside the window."""
+        return (time_s >= self.start_s) & (time_s < self.end_s)
+
+
+def schedule_windows(time_s: np.ndarray, speed_rpm: np.ndarray, step_s: float = STEP_WINDOW_S) -> list[Window]:
+    """Windows of a speed schedule, on the stretches of :func:`speed_segments`: after each change of level a
+    ``step`` window (its first ``step_s`` seconds), then the rest of the stretch as ``running`` or ``stopped``."""
+    t = np.asarray(time_s, dtype=float)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    end_of = lambda i: float(t[i]) if i < len(t) else float(t[-1] + dt)  # noqa: E731 (half-open ends)
+    out: list[Window] = []
+    prev = None
+    for a, b, level in speed_segments(t, speed_rpm):
+        label = f"{level:g} rpm" if level > 0 else "stop"
+        kind = "running" if level > 0 else "stopped"
+        if prev is not None:
+            cut = min(int(np.searchsorted(t, t[a] + step_s)), b)
+            out.append(Window(f"step {prev:g}→{level:g} rpm at {t[a] / 3600.0:.2f} h", "step", float(t[a]),
+                              end_of(cut), speed_rpm=level))
+            a = cut
+        if a < b:
+            out.append(Window(f"{label} from {t[a] / 3600.0:.2f} h", kind, float(t[a]), end_of(b), speed_rpm=level))
+        prev = level
+    return out
 
 
 def _median_filter(x: np.ndarray, window: int) -> np.ndarray:

@@ -15,8 +15,8 @@ Test: regress on lagged Σ|v|.
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, changed_outputs, log_bounds,
-                                                 target_outputs, unique_name)
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, changed_outputs,
+                                                 log_bounds, target_outputs, unique_name)
 from thermodrift.core.physics.network import AxisDriveSource, Edge, Node
 
 
@@ -59,9 +59,9 @@ class AxisDriveHeat(Mechanism):
     def _declare(self, before, after, p, o):
         source = added(before, after, "sources")[0]
         screw = next(iter(source.split))
-        free = [FreeParam("power_W", (f"sources.{source.name}.power_W",), p["power_W"],
+        free = [FreeParameter("power_W", (f"sources.{source.name}.power_W",), p["power_W"],
                           *log_bounds(self.parameters[0], p["power_W"]), "W")]
-        free += [FreeParam(f"sensitivity_um_K[{n}]", (f"outputs.{n}.sensitivity_um_K.{screw}",),
+        free += [FreeParameter(f"sensitivity_um_K[{n}]", (f"outputs.{n}.sensitivity_um_K.{screw}",),
                            p["sensitivity_um_K"], -15.0, 15.0, "um/K", scale="projected",
                            offset=before.output(n).sensitivity_um_K.get(screw, 0.0))
                  for n in changed_outputs(before, after)]

@@ -16,7 +16,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter
 from thermodrift.core.physics.network import BearingSource
 
 
@@ -51,9 +51,9 @@ class BearingHeatLaw(Mechanism):
         base = f"sources.{old.name}"
         shift_low = max(-1.0, 0.05 - old.viscous_exponent)
         gamma_high = min(0.04, 0.05 - old.viscosity_coeff_per_K)
-        return [FreeParam("exponent_shift", (f"{base}.viscous_exponent",), p["exponent_shift"], shift_low, 1.5, "1",
+        return [FreeParameter("exponent_shift", (f"{base}.viscous_exponent",), p["exponent_shift"], shift_low, 1.5, "1",
                           offset=old.viscous_exponent),
-                FreeParam("viscosity_coeff_per_K", (f"{base}.viscosity_coeff_per_K",), p["viscosity_coeff_per_K"],
+                FreeParameter("viscosity_coeff_per_K", (f"{base}.viscosity_coeff_per_K",), p["viscosity_coeff_per_K"],
                           max(1e-4, p["viscosity_coeff_per_K"] * 1e-3), max(gamma_high, p["viscosity_coeff_per_K"]),
                           "1/K", offset=old.viscosity_coeff_per_K)]
 

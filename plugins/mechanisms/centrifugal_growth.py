@@ -11,7 +11,7 @@ Residual signature when missing: instantaneous step at speed changes ∝ n², no
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter, changed_outputs, target_outputs
+from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter, changed_outputs, target_outputs
 
 
 class CentrifugalGrowth(Mechanism):
@@ -36,7 +36,7 @@ class CentrifugalGrowth(Mechanism):
 
     def _declare(self, before, after, p, o):
         outs = changed_outputs(before, after)
-        return [FreeParam("um_at_ref", (f"outputs.{n}.centrifugal_um",), p["um_at_ref"], -5.0, 5.0, "um",
+        return [FreeParameter("um_at_ref", (f"outputs.{n}.centrifugal_um",), p["um_at_ref"], -5.0, 5.0, "um",
                           scale="projected", offset=before.output(n).centrifugal_um) for n in outs]
 
 

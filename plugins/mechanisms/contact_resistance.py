@@ -13,7 +13,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter
 from thermodrift.core.physics.network import BOUNDARIES
 
 
@@ -46,7 +46,7 @@ class ContactResistance(Mechanism):
         old = {e.name: e for e in before.edges}
         e = next(e for e in after.edges if e.name in old and old[e.name] != e)
         g0 = old[e.name].G_W_K
-        return [FreeParam("G_joint_W_K", (f"edges.{e.name}.G_W_K",), e.G_W_K, g0 / (1.0 + 5.0 * g0),
+        return [FreeParameter("G_joint_W_K", (f"edges.{e.name}.G_W_K",), e.G_W_K, g0 / (1.0 + 5.0 * g0),
                           g0 / (1.0 + 1e-3 * g0), "W/K")]
 
 

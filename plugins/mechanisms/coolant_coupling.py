@@ -11,7 +11,7 @@ coolant switches. Test: coherence with the coolant inlet at its period.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, log_bounds,
                                                  nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import Advection, Edge, Node
 
@@ -45,9 +45,9 @@ class CoolantCoupling(Mechanism):
     def _declare(self, before, after, p, o):
         edges = added(before, after, "edges")
         flow = added(before, after, "advections")[0]
-        return [FreeParam("G_W_K", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["G_W_K"],
+        return [FreeParameter("G_W_K", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["G_W_K"],
                           *log_bounds(self.parameters[0], p["G_W_K"]), "W/K", factor=1.0 / len(edges)),
-                FreeParam("mdot_cp_W_K", (f"advections.{flow.name}.mdot_cp_W_K",), p["mdot_cp_W_K"], 1.0, 2000.0,
+                FreeParameter("mdot_cp_W_K", (f"advections.{flow.name}.mdot_cp_W_K",), p["mdot_cp_W_K"], 1.0, 2000.0,
                           "W/K")]
 
 

@@ -10,7 +10,7 @@ the cutting flag; regress on power.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, log_bounds,
                                                  nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import CuttingSource
 
@@ -34,7 +34,7 @@ class CuttingHeat(Mechanism):
 
     def _declare(self, before, after, p, o):
         source = added(before, after, "sources")[0]
-        return [FreeParam("fraction", (f"sources.{source.name}.fraction",), p["fraction"],
+        return [FreeParameter("fraction", (f"sources.{source.name}.fraction",), p["fraction"],
                           *log_bounds(self.parameters[0], p["fraction"]), "1")]
 
 

@@ -10,7 +10,7 @@ likelihood-ratio test of the feedback term.
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, log_bounds,
                                                  nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import PreloadFeedback as FeedbackSource
 
@@ -42,7 +42,7 @@ class PreloadFeedback(Mechanism):
 
     def _declare(self, before, after, p, o):
         sources = added(before, after, "sources")
-        return [FreeParam("gain_W_K", tuple(f"sources.{s.name}.gain_W_K" for s in sources), p["gain_W_K"],
+        return [FreeParameter("gain_W_K", tuple(f"sources.{s.name}.gain_W_K" for s in sources), p["gain_W_K"],
                           *log_bounds(self.parameters[0], p["gain_W_K"]), "W/K")]
 
 

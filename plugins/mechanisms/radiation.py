@@ -11,7 +11,7 @@ Residual signature when missing: ∝ εσ(T⁴ − T_a⁴), nearly linear in ΔT
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, nodes_of,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, nodes_of,
                                                  target_nodes, unique_name)
 from thermodrift.core.physics.network import Edge, radiation_conductance
 
@@ -43,7 +43,7 @@ class Radiation(Mechanism):
     def _declare(self, before, after, p, o):
         edges = added(before, after, "edges")
         per_unit = radiation_conductance(1.0, p["area_m2"] / len(edges), float(o["mean_degC"]))
-        return [FreeParam("emissivity", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["emissivity"],
+        return [FreeParameter("emissivity", tuple(f"edges.{e.name}.G_W_K" for e in edges), p["emissivity"],
                           max(1e-3, p["emissivity"] * 1e-3), 1.0, "1", factor=per_unit)]
 
 

@@ -13,7 +13,7 @@ import dataclasses
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import FreeParam, Mechanism, Parameter
+from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter
 
 
 class SensorLag(Mechanism):
@@ -39,7 +39,7 @@ class SensorLag(Mechanism):
         chosen = [s for s in after.temperature_sensors if old[s.name].lag_s != s.lag_s]
         base = old[chosen[0].name].lag_s  # one place is one sensor; several share the added lag
         same = [s for s in chosen if old[s.name].lag_s == base]
-        return [FreeParam("lag_s", tuple(f"sensors.{s.name}.lag_s" for s in same), p["lag_s"],
+        return [FreeParameter("lag_s", tuple(f"sensors.{s.name}.lag_s" for s in same), p["lag_s"],
                           max(1.0, p["lag_s"] * 1e-3), 1800.0, "s", offset=base)]
 
 

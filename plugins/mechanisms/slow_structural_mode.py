@@ -15,7 +15,7 @@ cool-down. Test: an extra node with τ2 ≫ τ1 and opposite gain.
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, changed_outputs, nodes_of,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, changed_outputs, nodes_of,
                                                  target_nodes, target_outputs, unique_name)
 from thermodrift.core.physics.network import Edge, Node
 
@@ -52,9 +52,9 @@ class SlowStructuralMode(Mechanism):
         # G_W_K stays at its value: τ and the gain describe the mode; the conductance only splits τ.
         slow = added(before, after, "nodes")[0]
         per_hour = 3600.0 * (p["G_W_K"] + float(o["ambient_W_K"]))
-        free = [FreeParam("tau_h", (f"nodes.{slow.name}.capacity_J_K",), p["tau_h"], 0.5, 24.0, "h",
+        free = [FreeParameter("tau_h", (f"nodes.{slow.name}.capacity_J_K",), p["tau_h"], 0.5, 24.0, "h",
                           factor=per_hour)]
-        free += [FreeParam(f"gain_um_K[{n}]", (f"outputs.{n}.sensitivity_um_K.{slow.name}",), p["gain_um_K"],
+        free += [FreeParameter(f"gain_um_K[{n}]", (f"outputs.{n}.sensitivity_um_K.{slow.name}",), p["gain_um_K"],
                            -10.0, 10.0, "um/K", scale="projected") for n in changed_outputs(before, after)]
         return free
 

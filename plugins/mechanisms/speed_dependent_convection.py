@@ -10,7 +10,7 @@ Residual signature when missing: steady state over-predicted at high n; cool-dow
 """
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, added, log_bounds,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, added, log_bounds,
                                                  nodes_of, target_nodes, unique_name)
 from thermodrift.core.physics.network import Edge
 
@@ -42,7 +42,7 @@ class SpeedDependentConvection(Mechanism):
 
     def _declare(self, before, after, p, o):
         edges = added(before, after, "edges")
-        return [FreeParam("G_rot_W_K", tuple(f"edges.{e.name}.G_rot_W_K" for e in edges), p["G_rot_W_K"],
+        return [FreeParameter("G_rot_W_K", tuple(f"edges.{e.name}.G_rot_W_K" for e in edges), p["G_rot_W_K"],
                           *log_bounds(self.parameters[0], p["G_rot_W_K"]), "W/K", factor=1.0 / len(edges))]
 
 

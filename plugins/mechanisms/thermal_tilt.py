@@ -13,7 +13,7 @@ over difference features.
 import dataclasses
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.physics.mechanisms import (FreeParam, Mechanism, Parameter, changed_outputs, nodes_of,
+from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, changed_outputs, nodes_of,
                                                  target_nodes, target_outputs)
 
 
@@ -50,7 +50,7 @@ class ThermalTilt(Mechanism):
         for n in changed_outputs(before, after):
             old, new = before.output(n).tilt_um_K, after.output(n).tilt_um_K
             key = next(k for k in new if new[k] != old.get(k))
-            out.append(FreeParam(f"um_K[{n}]", (f"outputs.{n}.tilt_um_K.{key}",), p["um_K"], -20.0, 20.0, "um/K",
+            out.append(FreeParameter(f"um_K[{n}]", (f"outputs.{n}.tilt_um_K.{key}",), p["um_K"], -20.0, 20.0, "um/K",
                                  scale="projected", offset=old.get(key, 0.0)))
         return out
 

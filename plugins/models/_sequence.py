@@ -1,10 +1,12 @@
-"""Shared parts of the sequence models of study S3 (``cnn_lstm``, ``ma_cnn``, ``cnn_lstm_transformer``, ``tcn_lstm``,
-``dltk``): windows over past inputs, the S3 search space, and the layers no library ships.
+"""Shared parts of the sequence models (S1's ``lstm``; S3's ``cnn_lstm``, ``ma_cnn``, ``cnn_lstm_transformer``,
+``tcn_lstm``, ``dltk``): windows over past inputs, their streamer, the S3 search space, and the layers no library
+ships.
 
 A prediction for row t reads the input rows t-window+1 .. t (temperatures in °C, Z-scored by the trainer), so
-``history_length = window - 1``: ``predict(X, history)`` and ``streamer(history)`` of the base class give the
-same numbers. Rows before the first one available repeat it (edge padding), at training and prediction alike.
-torch is imported where a network is built, not with the plugin.
+``history_length = window - 1``. Rows before the first one available repeat it (edge padding), at training and
+prediction alike. ``predict(X, history)`` and ``streamer(history).update(row)`` give the same numbers; the
+streamer keeps the last ``window`` rows, Z-scored once, in a ring buffer and runs one forward pass of the window per
+update. torch is imported where a network is built, not with the plugin.
 """
 
 from __future__ import annotations
@@ -15,7 +17,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from thermodrift.core.training import TorchThermalModel, TrainerSettings, trainer_search_space
+from thermodrift.core.components import Streamer
+from thermodrift.core.training import (TorchThermalModel, TrainerSettings, predict, resolve_device,
+                                       trainer_search_space)
 
 if TYPE_CHECKING:
     from torch import nn
@@ -42,9 +46,9 @@ def s3_search_space() -> dict[str, dict[str, Any]]:
 class SequenceModel(TorchThermalModel):
     """Base of the windowed torch models: ``window`` rows in, one displacement row (µm) out per target.
 
-    Subclasses store their constructor parameters (their own plus ``window``, ``dropout``, ``trainer`` and
-    ``random_state``, see :class:`~thermodrift.core.training.TorchThermalModel`) and implement
-    ``_network(n_inputs, n_outputs)`` taking (batch, window, inputs).
+    Subclasses store their constructor parameters (their own plus ``window``, ``trainer`` and ``random_state``,
+    see :class:`~thermodrift.core.training.TorchThermalModel`) and implement ``_network(n_inputs, n_outputs)``
+    taking (batch, window, inputs).
     """
 
     # Sized for a CPU (window 16, at most 60 epochs, batches of 128): DLTK's fit on 3,277 rows of the S3 recording
@@ -64,21 +68,27 @@ class SequenceModel(TorchThermalModel):
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
         return self._network(n_inputs, n_outputs)
 
-    def _predict(self, X: pd.DataFrame) -> np.ndarray:
-        # The trainer's _predict rebuilds the network per call; a streamer calls once per row, so the built network
-        # is kept (for the current weights only) and left out of pickles.
-        from thermodrift.core.training import predict, resolve_device
-
+    def _module(self) -> nn.Module:
+        """The fitted network in evaluation mode. The trainer's ``_predict`` rebuilds it per call; a streamer calls
+        once per row, so the built network is kept (for the current weights only) and left out of pickles."""
         cached = getattr(self, "_network_cache", None)
-        if cached is None or cached[0] is not self.state_dict_:
+        device_name = self.trainer_settings().device
+        if cached is None or cached[0] is not self.state_dict_ or cached[3] != device_name:
             import torch
 
             with torch.random.fork_rng(devices=[]):  # building re-initialises weights; keep the caller's RNG intact
                 module = self._build(len(self.x_scaler_.mean), len(self.y_scaler_.mean))
             module.load_state_dict(self.state_dict_)
-            cached = self._network_cache = (self.state_dict_, module.eval())
-        return predict(cached[1], self._inputs(X), self.x_scaler_, self.y_scaler_,
-                       resolve_device(self.trainer_settings().device))
+            device = resolve_device(device_name)
+            cached = self._network_cache = (self.state_dict_, module.to(device).eval(), device, device_name)
+        return cached[1]
+
+    def _predict(self, X: pd.DataFrame) -> np.ndarray:
+        module = self._module()
+        return predict(module, self._inputs(X), self.x_scaler_, self.y_scaler_, self._network_cache[2])
+
+    def streamer(self, history: pd.DataFrame | None = None) -> "SequenceStreamer":
+        return SequenceStreamer(self, history)
 
     def __getstate__(self):
         state = dict(super().__getstate__())  # a copy: object.__getstate__ returns the instance's own __dict__
@@ -91,6 +101,49 @@ class SequenceModel(TorchThermalModel):
     def n_parameters(self) -> int:
         """Trainable parameters of the fitted network."""
         return int(self.train_report_.n_parameters)
+
+
+class SequenceStreamer(Streamer):
+    """One row per :meth:`update` for a :class:`SequenceModel`: the last ``window`` input rows, Z-scored once, in a
+    ring buffer (the oldest row repeated until ``window`` rows have been seen, as :func:`windows` pads), and one
+    forward pass of that window per update. Equals ``predict(rows, history)`` (the conformance suite checks it).
+
+    The ring is stored twice over (each row written at ``i`` and ``i + window``), so the window in time order is
+    always one contiguous slice: no copy before the forward pass."""
+
+    def __init__(self, model: SequenceModel, history: pd.DataFrame | None = None):
+        import torch
+
+        super().__init__(model, None)
+        self._torch = torch
+        self.module = model._module()
+        self.device = model._network_cache[2]
+        self.mean, self.scale = model.x_scaler_.mean, model.x_scaler_.scale
+        self.y_mean, self.y_scale = model.y_scaler_.mean, model.y_scaler_.scale
+        self.window = int(model.window)
+        self.ring = np.zeros((2 * self.window, len(self.columns)), dtype=np.float32)
+        self.head = 0  # position of the oldest row
+        self.seen = 0
+        past = model._relevant_history(history)
+        for row in ([] if past is None else past[self.columns].to_numpy(dtype=float)):
+            self._push(row)
+
+    def _push(self, x: np.ndarray) -> None:
+        z = (x - self.mean) / self.scale  # float64, rounded to float32 on storing, as the batch path does
+        if self.seen == 0:  # edge padding: the first row fills the whole window
+            self.ring[:] = z
+        else:
+            self.ring[self.head] = self.ring[self.head + self.window] = z
+            self.head = (self.head + 1) % self.window
+        self.seen += 1
+
+    def update(self, row) -> np.ndarray:
+        """Displacement (µm) per target for one new input ``row`` (see :meth:`Streamer.update`)."""
+        self._push(self.values(row))
+        window = self._torch.from_numpy(self.ring[self.head:self.head + self.window])[None].to(self.device)
+        with self._torch.inference_mode():
+            out = self.module(window)[0].cpu().numpy()
+        return out.astype(float) * self.y_scale + self.y_mean
 
 
 def transformer_width(size: int, heads: int) -> int:

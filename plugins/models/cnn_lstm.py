@@ -16,7 +16,10 @@ if TYPE_CHECKING:
 
 
 class CNNLSTM(SequenceModel):
-    """See the module docstring. ``trainer`` and ``random_state`` as in ``SequenceModel``."""
+    """A 1-D convolution over the input window (°C) feeding an LSTM, -> µm (an S3 baseline).
+
+    ``trainer`` and ``random_state`` as in ``SequenceModel``.
+    """
 
     def __init__(self, channels: int = 16, kernel: int = 3, hidden_size: int = 32,
                  window: int = 16, dropout: float = 0.1, trainer: dict | None = None, random_state: int = 0):

@@ -17,7 +17,10 @@ if TYPE_CHECKING:
 
 
 class CNNLSTMTransformer(SequenceModel):
-    """See the module docstring. ``trainer`` and ``random_state`` as in ``SequenceModel``."""
+    """Convolution, LSTM and a Transformer encoder in series over the input window (°C), -> µm (an S3 baseline).
+
+    ``trainer`` and ``random_state`` as in ``SequenceModel``.
+    """
 
     def __init__(self, channels: int = 16, kernel: int = 3, hidden_size: int = 32, heads: int = 4,
                  window: int = 16, dropout: float = 0.1, trainer: dict | None = None, random_state: int = 0):

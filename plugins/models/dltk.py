@@ -26,7 +26,10 @@ ABLATIONS = {"full": {}, "no_deform": {"deform": False}, "no_lstm": {"lstm": Fal
 
 
 class DLTK(SequenceModel):
-    """See the module docstring. ``trainer`` and ``random_state`` as in ``SequenceModel``."""
+    """Deformable convolution -> LSTM -> Transformer encoder -> Fourier-KAN head (S3's model), °C -> µm.
+
+    ``trainer`` and ``random_state`` as in ``SequenceModel``.
+    """
 
     def __init__(self, channels: int = 16, kernel: int = 3, hidden_size: int = 32, heads: int = 4, kan_grid: int = 4,
                  deform: bool = True, lstm: bool = True, transformer: bool = True, kan: bool = True,

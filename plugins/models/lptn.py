@@ -1,24 +1,24 @@
 """Models ``lptn`` and ``lptn_hybrid``: the calibrated lumped-parameter thermal network as a thermal-error model.
 
-``lptn`` fits by calibrating the ``auto`` baseline network (:func:`thermodrift.core.physics.calibration.auto_network`:
-speed-driven heat, one node per temperature sensor plus hidden nodes, constant convection, linear expansion map)
-on the training part. It predicts as a controller runs it: a state observer (a steady-state Kalman filter over
-the calibrated network, :class:`thermodrift.core.physics.calibration.StateObserver`) carries the node
-temperatures from row to row, corrected by the measured temperatures; the hidden nodes run on the speed (and
-ambient) history. Displacement is the expansion map of the observed state, refitted on the training states with
-its ridge strength chosen there by blocked cross-validation (``objective.cv_ridge``). ``history_length = None``:
+``lptn`` fits by calibrating the ``auto`` baseline network
+(:func:`thermodrift.core.physics.calibration.auto_network`: speed-driven heat, one node per temperature sensor plus
+hidden nodes, constant convection, linear expansion map) on the training part. It predicts as a controller runs it:
+a state observer (a steady-state Kalman filter over the calibrated network,
+:class:`thermodrift.core.physics.calibration.StateObserver`) carries the node temperatures from row to row,
+corrected by the measured temperatures; the hidden nodes run on the speed (and ambient) history. Displacement is the
+expansion map of the observed state, refitted on the training states with its ridge strength chosen there by blocked
+cross-validation (:func:`thermodrift.core.physics.calibration.cv_ridge`). ``history_length = None``:
 ``predict(X, history)`` starts the observer at the first history row (else at the first row of ``X``, at rest
-with its readings), and ``streamer(history)`` carries the observer state so each ``update(row)`` is one filter
-step.
+with its readings), and ``streamer(history)`` carries the observer state so each ``update(row)`` is one filter step.
 
 ``lptn_hybrid`` adds a data-driven residual model: ridge regression (``alpha``) of the training residual
 y − physics on the standardised measured temperatures and the physics prediction.
 
 Both set ``extra_input_roles = ("temperature", "speed", "ambient")``: the study appends every temperature
-channel the selector left out (a network wants them all), the speed column and ambient columns. The columns are
-recognised by ``X.attrs["roles"]`` (``{column: role}``) when present, else by the ``speed_column`` /
-``ambient_column`` parameters, else by name (``rpm``/``speed``/``spindle``; ``ambient``/``amb``), a speed column
-also having to look like a schedule (non-negative, ≥ 100 rpm, at most 64 levels).
+channel the selector left out (a network wants them all), the speed column and ambient columns, and passes each
+column's role in ``X.attrs["roles"]`` (``{column: role}``). The speed column (rpm) is the one with role
+``speed``, the ambient column (°C) the first with role ``ambient``, and every other column a temperature (°C);
+the ``speed_column`` / ``ambient_column`` parameters name them instead, for frames without roles.
 """
 
 from __future__ import annotations
@@ -33,35 +33,23 @@ from sklearn.linear_model import Ridge
 from thermodrift.core.components import Streamer, ThermalModel
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.physics import calibration as cal
-from thermodrift.core.physics.calibration.objective import cv_ridge, ridge_solve
 from thermodrift.core.recording import Channel, Recording
-
-_SPEED_WORDS = ("rpm", "speed", "spindle")
-_AMBIENT_WORDS = ("ambient", "amb_", "amb(", "room")
-
-
-def _looks_like_speed(values: pd.Series) -> bool:
-    """A spindle schedule: non-negative, reaching ≥ 100 rpm, with at most 64 distinct levels."""
-    v = values.to_numpy(dtype=float)
-    return bool(len(v)) and v.min() >= 0 and v.max() >= 100 and len(np.unique(v)) <= 64
 
 
 def input_roles(X: pd.DataFrame, speed_column: str | None = None,
                 ambient_column: str | None = None) -> tuple[str, str | None, list[str]]:
-    """(speed column, ambient column or None, temperature columns) of a model input frame."""
+    """(speed column, ambient column or None, temperature columns) of a model input frame, from the roles the
+    study passes in ``X.attrs["roles"]``; ``speed_column`` / ``ambient_column`` name them instead."""
     roles = dict(X.attrs.get("roles", {}))
     cols = [str(c) for c in X.columns]
     speed = speed_column or next((c for c in cols if roles.get(c) == "speed"), None)
     ambient = ambient_column or next((c for c in cols if roles.get(c) == "ambient"), None)
+    for name, column in (("speed_column", speed_column), ("ambient_column", ambient_column)):
+        if column is not None and column not in cols:
+            raise ValueError(f"lptn: {name}={column!r} is not among the input columns {cols}")
     if speed is None:
-        # by name in the order rpm, speed, spindle ("T_spindle" is a temperature), then by value alone
-        named = [c for w in _SPEED_WORDS for c in cols if w in c.lower()]
-        speed = next((c for c in dict.fromkeys(named + cols) if _looks_like_speed(X[c])), None)
-    if speed is None or speed not in cols:
-        raise ValueError("lptn needs the spindle speed among its inputs (extra_input_roles); none of "
-                         f"{cols} looks like a speed column — pass speed_column=")
-    if ambient is None and not roles:
-        ambient = next((c for c in cols if c != speed and any(w in c.lower() for w in _AMBIENT_WORDS)), None)
+        raise ValueError(f"lptn needs the spindle speed among its inputs: none of {cols} has role 'speed' in "
+                         "X.attrs['roles'] (the study passes the roles of extra_input_roles); pass speed_column=")
     temps = [c for c in cols if c not in (speed, ambient)]
     return speed, ambient, temps
 
@@ -126,8 +114,8 @@ class LPTN(ThermalModel):
         states = self._observe(self._fresh(), X)
         # the expansion map refitted on the observed states, its ridge strength chosen there by blocked CV
         A = np.column_stack([states - self.reference_, np.ones(len(states))])
-        self.ridge_ = cv_ridge(A, y)
-        beta = ridge_solve(A, y, self.ridge_)
+        self.ridge_ = cal.cv_ridge(A, y)
+        beta = cal.ridge_solve(A, y, self.ridge_)
         self.coef_, self.intercept_ = beta[:-1], beta[-1]
         self.rmse_calibration_ = result.rmse
 
@@ -141,7 +129,7 @@ class LPTN(ThermalModel):
 
     def _fresh(self) -> cal.StateObserver:
         obs = copy.copy(self.observer_)
-        obs.x, obs._last, obs._row_key = None, None, None
+        obs.reset()
         return obs
 
     def _observe(self, obs: cal.StateObserver, X: pd.DataFrame) -> np.ndarray:
@@ -162,6 +150,23 @@ class LPTN(ThermalModel):
         """(W_x, W_T, w_ambient, c): one streamed row's output is x·W_x + T·W_T + ambient·w_ambient + c for its
         observed state x and readings T (the hybrid folds its residual model in; None: no such term)."""
         return self.coef_, None, None, self.intercept_ - self.reference_ @ self.coef_
+
+    def export_state(self) -> dict:
+        """Runtime ``lptn``: the network's (A, B) per 10 rpm speed level from 0 to twice the training maximum, the
+        observer's matrices and the read-out of :meth:`_row_map` (the auto network's reference speed is the
+        training maximum)."""
+        comp = self.observer_.comp
+        top = 2.0 * self.network_.reference_speed_rpm
+        levels = [comp.matrices(s, 1.0) for s in np.arange(0.0, top + 10.0, 10.0)]
+        W_x, W_T, w_ambient, c = self._row_map()
+        return {"runtime": "lptn", "inputs": [str(col) for col in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": None,
+                "temperature_columns": list(self.temperatures_), "speed_column": self.speed_,
+                "ambient_column": self.ambient_, "ambient_default_degC": cal.AUTO_AMBIENT_DEGC,
+                "speed_step_rpm": 10.0, "A": np.array([a for a, _ in levels]),
+                "B": np.array([b[:, :3] for _, b in levels]), "C": self.observer_.C,
+                "offsets": self.observer_.offsets, "R": self.observer_.R, "q": self.observer_.q,
+                "W_x": W_x, "W_T": W_T, "w_ambient": w_ambient, "c": c}
 
 
 class _LPTNStreamer(Streamer):

@@ -17,23 +17,16 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.training import TorchThermalModel, TrainerSettings
+from thermodrift.core.training import TrainerSettings
+from thermodrift.plugins.models._sequence import SequenceModel
 
 if TYPE_CHECKING:
     from torch import nn
 
 
-def windows(x: np.ndarray, window: int) -> np.ndarray:
-    """(n, window, features): row i holds rows i−window+1 … i, the first row repeated before the start."""
-    padded = np.concatenate([np.repeat(x[:1], window - 1, axis=0), x]) if len(x) else x
-    idx = np.arange(len(x))[:, None] + np.arange(window)[None, :]
-    return padded[idx]
-
-
-class LSTM(TorchThermalModel):
+class LSTM(SequenceModel):
     """Temperatures (°C) over the last ``window`` samples → displacements (µm) (see the module docstring)."""
 
     trainer_defaults = TrainerSettings(lr_max=0.01, weight_decay=0.0, epochs=200, batch_size=None, t0=50, t_mult=2)
@@ -43,11 +36,6 @@ class LSTM(TorchThermalModel):
         self.hidden_units = hidden_units
         self.trainer = trainer
         self.random_state = random_state
-
-    # follows the window parameter, so a property rather than a class constant (on the class it is truthy)
-    @property
-    def history_length(self) -> int:  # type: ignore[override]
-        return max(0, int(self.window) - 1)
 
     @classmethod
     def get_test_params(cls):
@@ -60,12 +48,7 @@ class LSTM(TorchThermalModel):
         return {"trainer__lr_max": {"type": "float", "low": 0.01, "high": 0.15},
                 "hidden_units": {"type": "int", "low": 1, "high": 200}}
 
-    def _inputs(self, X: pd.DataFrame) -> np.ndarray:
-        if self.window < 1:
-            raise ValueError(f"window must be >= 1, got {self.window}")
-        return windows(X.to_numpy(dtype=float), int(self.window))
-
-    def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
+    def _network(self, n_inputs: int, n_outputs: int) -> nn.Module:
         from torch import nn
 
         if self.hidden_units < 1:
@@ -82,6 +65,16 @@ class LSTM(TorchThermalModel):
                 return self.head(out[:, -1])
 
         return _Net(int(self.hidden_units))
+
+    def export_state(self) -> dict:
+        """Runtime ``sequence`` (architecture ``lstm``): the weights as torch tensors and the scalers."""
+        return {"runtime": "sequence", "architecture": "lstm", "inputs": [str(c) for c in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": self.history_length,
+                "window": int(self.window), "hidden_units": int(self.hidden_units),
+                "n_inputs": len(self.x_scaler_.mean), "n_outputs": len(self.y_scaler_.mean),
+                "weights": dict(self.state_dict_), "x_mean": np.asarray(self.x_scaler_.mean),
+                "x_scale": np.asarray(self.x_scaler_.scale), "y_mean": np.asarray(self.y_scaler_.mean),
+                "y_scale": np.asarray(self.y_scaler_.scale)}
 
 
 @hookimpl

@@ -16,7 +16,10 @@ if TYPE_CHECKING:
 
 
 class MultiAttentionCNN(SequenceModel):
-    """See the module docstring. ``trainer`` and ``random_state`` as in ``SequenceModel``."""
+    """A multi-attention convolutional network over the input window (°C), -> µm (an S3 baseline).
+
+    ``trainer`` and ``random_state`` as in ``SequenceModel``.
+    """
 
     def __init__(self, channels: int = 32, kernel: int = 3,
                  window: int = 16, dropout: float = 0.1, trainer: dict | None = None, random_state: int = 0):

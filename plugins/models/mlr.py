@@ -35,6 +35,13 @@ class MLR(ThermalModel):
     def streamer(self, history=None) -> "_LinearStreamer":
         return _LinearStreamer(self, history)
 
+    def export_state(self) -> dict:
+        """Runtime ``linear``: the ridge read-out on standardised inputs, as ``_predict`` computes it."""
+        return {"runtime": "linear", "inputs": [str(c) for c in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": 0, "mean": self.x_mean_,
+                "scale": self.x_scale_, "coef": np.asarray(self.regressor_.coef_, dtype=float).reshape(
+                    len(self.target_names_), -1).T, "intercept": np.atleast_1d(self.regressor_.intercept_)}
+
 
 class _LinearStreamer(Streamer):
     """Memoryless: one dot product per row with the coefficients in °C units."""

@@ -20,9 +20,8 @@ import pandas as pd
 from optuna.distributions import FloatDistribution
 
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.training import Standardizer, train, trainer_search_space
+from thermodrift.core.training import Standardizer, train, trainer_search_space, training_rows
 from thermodrift.plugins.models.bp import BPNetwork
-from thermodrift.plugins.optimizers.pso import PSOSampler
 
 
 def _activation(name: str, z: np.ndarray) -> np.ndarray:
@@ -73,8 +72,7 @@ class PSOBPNN(BPNetwork):
         inputs = self._inputs(X)
         config = self.trainer_settings()
         # The trainer's own split and scaling (training.train): the swarm sees only the rows BP trains on.
-        n_val = max(1, round(config.validation_fraction * len(inputs))) if config.validation_fraction > 0 else 0
-        n_train = max(1, len(inputs) - n_val)
+        n_train = training_rows(len(inputs), config)
         xs = Standardizer.fit(inputs[:n_train]).transform(inputs[:n_train])
         ys = Standardizer.fit(y[:n_train]).transform(y[:n_train])
         start = self._swarm(xs, ys, inputs.shape[-1], y.shape[1])
@@ -93,14 +91,17 @@ class PSOBPNN(BPNetwork):
         """The best initial state dict the swarm finds (its best MSE per iteration in ``swarm_curve_``)."""
         import torch
 
+        from thermodrift.core import registry  # the registered sampler, as any plugin reaches another
+
         with torch.random.fork_rng(devices=[]):
             template = self._build(n_in, n_out).state_dict()
         shapes = [(k, tuple(v.shape)) for k, v in template.items()]
         dim = sum(int(np.prod(s)) for _, s in shapes)
         space = {f"w{i:05d}": FloatDistribution(-self.weight_bound, self.weight_bound) for i in range(dim)}
-        sampler = PSOSampler(population_size=self.swarm_size, form="inertia", w_start=self.inertia,
-                             w_end=self.inertia, c1=self.c1, c2=self.c2,
-                             n_trials=self.swarm_size * self.pso_iterations, seed=self.random_state)
+        sampler = registry.create_sampler("pso", seed=self.random_state,
+                                          n_trials=self.swarm_size * self.pso_iterations,
+                                          population_size=self.swarm_size, form="inertia", w_start=self.inertia,
+                                          w_end=self.inertia, c1=self.c1, c2=self.c2)
         optuna.logging.set_verbosity(optuna.logging.WARNING)
         study = optuna.create_study(sampler=sampler, direction="minimize")
         names = list(space)

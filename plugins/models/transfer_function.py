@@ -90,6 +90,12 @@ class TransferFunction(ThermalModel):
     def streamer(self, history: pd.DataFrame | None = None) -> "TransferFunctionStreamer":
         return TransferFunctionStreamer(self, history)
 
+    def export_state(self) -> dict:
+        """Runtime ``transfer_function``: the feature stage's state and the affine read-out of its features."""
+        return {"runtime": "transfer_function", "inputs": [str(c) for c in self.feature_names_in_],
+                "targets": list(self.target_names_), "history_length": None, "features": self.features_.to_state(),
+                "weights": self.weights_, "intercept": self.intercept_}
+
 
 class TransferFunctionStreamer:
     """Carries the filter state (:class:`FeatureStream`); ``update(row)`` costs a handful of numpy operations."""

@@ -20,13 +20,16 @@ Public API (stable; the missing-physics finder builds on it)::
     result.prior                         # Prior on the nonlinear parameters (strength, how it was chosen) or None
     result.to_dict()                     # calibration.json: rmse_initial and rmse at the top level
 
-    cal.FreeParameter(name, paths=("edges.a-b.G_W_K",), value=2.0, low=0.1, high=50.0, unit="W/K", log=True)
+    cal.FreeParameter(name, paths=("edges.a-b.G_W_K",), value=2.0, low=0.1, high=50.0, unit="W/K", scale="log")
     cal.auto_network(recording)          # AutoBaseline(network, free, assumptions, channel_nodes, time_constants_s)
     cal.predict(network, scenario)       # open-loop readings and node temperatures
     cal.StateObserver(network, sensors)  # Kalman filter over the network with the measured temperatures
+    cal.cv_ridge(A, Y), cal.ridge_solve(A, Y, lam)  # the ridge strength by blocked CV, and the ridge fit
 
 A mechanism adds its own parameters by passing ``free=[*auto.free, *mechanism_parameters]`` with a network that
-contains its element. Modules by job: :mod:`.free` (free parameters), :mod:`.auto` (the auto network and what
+contains its element: :meth:`Mechanism.declare <thermodrift.core.physics.mechanisms.Mechanism.declare>` returns them
+as :class:`FreeParameter` s, the one free-parameter type (``scale="projected"`` ones are solved linearly and are not
+searched: leave them out). Modules by job: :mod:`.free` (free parameters), :mod:`.auto` (the auto network and what
 it assumes), :mod:`.objective` (re-simulation, variable projection, ridge sensitivities, the fit grid),
 :mod:`.uncertainty` (intervals, identifiability), :mod:`.prior` (the auto network's prior), :mod:`.fit` (the search
 and the result), :mod:`.prediction` (open loop and the state observer).
@@ -40,7 +43,7 @@ from thermodrift.core.physics.calibration.auto import (AUTO_AMBIENT_DEGC, AUTO_A
                                                        AutoBaseline, auto_network, step_response_start)
 from thermodrift.core.physics.calibration.fit import CalibrationResult, calibrate
 from thermodrift.core.physics.calibration.free import FreeParameter, default_free, free_from_paths
-from thermodrift.core.physics.calibration.objective import fit_rows, noise_sigma
+from thermodrift.core.physics.calibration.objective import cv_ridge, fit_rows, noise_sigma, ridge_solve
 from thermodrift.core.physics.calibration.prediction import StateObserver, predict
 from thermodrift.core.physics.calibration.prior import STRENGTH_GRID, Prior
 from thermodrift.core.physics.calibration.uncertainty import NULL_TOLERANCE, UNIDENTIFIABLE_RATIO, Estimate
@@ -48,6 +51,6 @@ from thermodrift.core.physics.calibration.uncertainty import NULL_TOLERANCE, UNI
 __all__ = [
     "AUTO_AMBIENT_DEGC", "AUTO_ASSUMPTIONS", "AUTO_CAPACITY_J_K", "AutoBaseline", "CalibrationResult", "Estimate",
     "FreeParameter", "NULL_TOLERANCE", "Prior", "STRENGTH_GRID", "StateObserver", "UNIDENTIFIABLE_RATIO",
-    "auto_network", "calibrate",
-    "default_free", "fit_rows", "free_from_paths", "noise_sigma", "predict", "step_response_start",
+    "auto_network", "calibrate", "cv_ridge", "default_free", "fit_rows", "free_from_paths", "noise_sigma", "predict",
+    "ridge_solve", "step_response_start",
 ]

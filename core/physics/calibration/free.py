@@ -16,15 +16,24 @@ _DEFAULT_FREE_FIELDS = ("capacity_J_K", "G_W_K", "G_rot_W_K", "mdot_cp_W_K", "vi
                         "power_W", "fraction", "gain_W_K")
 
 
+SCALES = ("log", "linear", "projected")
+
+
 @dataclass(frozen=True)
 class FreeParameter:
-    """One searched value, written to every network path in ``paths`` (dotted, see :meth:`Network.parameters`).
+    """One free value of a network: its start ``value``, bounds ``low``/``high`` and ``unit``, and the network
+    ``paths`` it sets (dotted, see :meth:`Network.parameters`); calibrations and mechanisms share this type.
 
-    ``value`` is the start, ``low``/``high`` the bounds (same unit). ``log=True`` searches log(value) (needs
-    0 < low), so steps and intervals are relative; ``log=False`` searches the value itself (signed parameters).
-    ``projected_by``: a temperature channel whose reading is linear in this heat amplitude; the search then
-    solves it by linear least squares instead (only the ``auto`` network sets it). ``scales``: the value is a
-    factor and path k takes ``value × scales[k]`` (grouped parameters, :meth:`path_values`).
+    Path k takes the network value ``factor·value + offset`` (:meth:`network_value`), times ``scales[k]`` when
+    ``scales`` is set (one factor shared by a group of parameters, each keeping its own start, :meth:`path_values`).
+    A mechanism states its parameter in its own unit (a time constant in h that sets a capacity in J/K: ``factor``;
+    a shift added to the network's exponent: ``offset``); a calibration's own parameters are network values.
+
+    ``scale``: ``log`` searches the log of the network value (so steps and intervals are relative; the network
+    value must stay positive), ``linear`` the network value itself (signed parameters), ``projected`` marks a
+    value that enters the outputs linearly, which the search solves by least squares with the sensitivities
+    instead of searching it. ``projected_by``: a temperature channel whose reading is linear in this heat
+    amplitude; the search then solves it by linear least squares too (only the ``auto`` network sets it).
     """
 
     name: str
@@ -33,30 +42,63 @@ class FreeParameter:
     low: float
     high: float
     unit: str = ""
-    log: bool = True
+    scale: str = "log"
+    factor: float = 1.0
+    offset: float = 0.0
     projected_by: str | None = None
     scales: tuple[float, ...] = ()
 
-    def path_values(self, value: float) -> dict[str, float]:
-        """Network value per path: ``value`` on every path, or ``value × scales[k]`` on path k when ``scales`` is
-        set (one factor shared by a group of parameters, each keeping its own start value)."""
-        if self.scales:
-            return {path: value * k for path, k in zip(self.paths, self.scales)}
-        return {path: value for path in self.paths}
-
     def __post_init__(self):
-        if not self.low <= self.value <= self.high or (self.log and self.low <= 0):
+        if self.scale not in SCALES:
+            raise InputError(f"free parameter {self.name!r} has scale {self.scale!r}",
+                             hint=f"use one of {', '.join(SCALES)}")
+        if not self.factor > 0:
+            raise InputError(f"free parameter {self.name!r}: factor must be positive, got {self.factor:g}")
+        if not self.low <= self.value <= self.high or (self.log and self.network_value(self.low) <= 0):
             need = "0 < low ≤ value ≤ high" if self.log else "low ≤ value ≤ high"
+            if self.log and (self.factor, self.offset) != (1.0, 0.0):
+                need = "low ≤ value ≤ high and a positive network value at low"
             raise InputError(f"free parameter {self.name!r}: need {need}, got "
                              f"{self.low:g} ≤ {self.value:g} ≤ {self.high:g}")
 
+    @property
+    def log(self) -> bool:
+        """True when the search runs over the log of the network value."""
+        return self.scale == "log"
+
+    def network_value(self, value: float) -> float:
+        """The network value (before ``scales``) that ``value`` sets."""
+        return self.factor * value + self.offset
+
+    def from_network(self, network_value: float) -> float:
+        """The parameter value of a network value (inverse of :meth:`network_value`)."""
+        return (network_value - self.offset) / self.factor
+
+    def path_values(self, value: float) -> dict[str, float]:
+        """Network value per path: :meth:`network_value` on every path, times ``scales[k]`` on path k when set."""
+        v = self.network_value(value)
+        if self.scales:
+            return {path: v * k for path, k in zip(self.paths, self.scales)}
+        return {path: v for path in self.paths}
+
     def to_search(self, v: float) -> float:
-        """Search coordinate of a value (log for log parameters)."""
-        return math.log(v) if self.log else float(v)
+        """Search coordinate of a value: the log of its network value for log parameters, else the network value."""
+        x = self.network_value(v)
+        return math.log(x) if self.log else float(x)
 
     def from_search(self, theta: float) -> float:
         """Value of a search coordinate."""
-        return math.exp(theta) if self.log else float(theta)
+        return self.from_network(math.exp(theta) if self.log else float(theta))
+
+    def on_network_scale(self, start: float) -> FreeParameter:
+        """This parameter stated in network values (factor 1, offset 0), starting at ``start`` (its own unit,
+        clipped into the bounds): what a search over the network's own scale takes. Log bounds move inward by a
+        relative 1e-9, since exp(log(x)) can land a rounding step past a limit."""
+        lo, hi = sorted((self.network_value(self.low), self.network_value(self.high)))
+        if self.log:
+            lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)
+        return FreeParameter(self.name, self.paths, float(min(max(self.network_value(start), lo), hi)), lo, hi,
+                             self.unit, scale=self.scale)
 
 
 def _unit_of(path: str) -> str:

@@ -34,8 +34,8 @@ from thermodrift.core.physics.calibration.free import FreeParameter, set_values
 from thermodrift.core.physics.integrate import CompiledNetwork
 from thermodrift.core.physics.network import DisplacementSensor, Network, TemperatureSensor
 from thermodrift.core.physics.scenarios import Scenario
-from thermodrift.core.physics.sensors import TEMPERATURE_ROLES, temperature_reading
-from thermodrift.core.recording import speed_segments
+from thermodrift.core.physics.sensors import temperature_reading
+from thermodrift.core.recording import TEMPERATURE_ROLES, speed_segments
 
 GRID_PER_BLOCK = 8           # fit-grid steps per shortest speed block
 GRID_PER_TAU = 2             # fit-grid steps per shortest warm-up time constant
@@ -124,6 +124,10 @@ class Problem:
         self.network = network
         self.time_constants_s, self.max_fit_samples = list(time_constants_s), max_fit_samples
         self.ambient_degC, self.min_ridge = ambient_degC, min_ridge
+        projected = [p.name for p in free if p.scale == "projected"]
+        if projected:
+            raise InputError(f"free parameter(s) {projected} have scale 'projected': the linear step solves them",
+                             hint="search only log and linear parameters")
         self.free = [p for p in free if p.projected_by is None]
         self.projected = {p.projected_by: p for p in free if p.projected_by is not None}
         self.scenario = Scenario.from_recording(recording, ambient_degC=ambient_degC)

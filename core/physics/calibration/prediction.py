@@ -20,7 +20,7 @@ import pandas as pd
 from scipy.linalg import solve_discrete_are
 
 from thermodrift.core.physics.integrate import CompiledNetwork, propagate
-from thermodrift.core.physics.network import BOUNDARIES, Network, TemperatureSensor
+from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.physics.sensors import temperature_reading
 
@@ -39,9 +39,8 @@ def predict(network: Network, scenario: Scenario, initial: np.ndarray | None = N
     t = scenario.time_s
     bnd = {"ambient": scenario.frame["ambient_degC"].to_numpy(),
            "coolant": scenario.frame["coolant_inlet_degC"].to_numpy()}
-    r2 = (scenario.frame["speed_rpm"].to_numpy() / network.reference_speed_rpm) ** 2
-    ref = X[0] if reference is None else np.asarray(reference, dtype=float)
-    Y = (X - ref) @ comp.output_matrix.T + r2[:, None] * comp.centrifugal_um[None, :]
+    Y = comp.displacements(X, scenario.frame["speed_rpm"].to_numpy(),
+                           None if reference is None else np.asarray(reference, dtype=float))
     cols = {}
     for s in network.sensors:
         if isinstance(s, TemperatureSensor):
@@ -57,7 +56,8 @@ class StateObserver:
     standard deviations (K); missing entries take 0.01 K and 0.1 K. Networks with signal-driven sources
     (cutting power, axis velocity) are not supported: the observer takes speed, ambient and coolant only.
 
-    State: :attr:`x` (node temperatures, °C) after the last row, ``None`` before the first.
+    State: :attr:`x` (node temperatures, °C) after the last row, ``None`` before the first (and after
+    :meth:`reset`).
     """
 
     def __init__(self, network: Network, sensors: Sequence[str], noise_K: Mapping[str, float] | None = None,
@@ -84,13 +84,17 @@ class StateObserver:
         observed = self.C.any(axis=0)
         self.q = np.array([(process_K or {}).get(n, 0.1) ** 2 / tau[i] if observed[i] else 0.0
                            for i, n in enumerate(self.comp.names)])
-        self.output_matrix = self.comp.output_matrix
-        self.centrifugal = self.comp.centrifugal_um
-        self.reference_speed = network.reference_speed_rpm
         self._levels: dict[tuple, tuple] = {}
         self.x: np.ndarray | None = None
         self._last: tuple | None = None  # (time s, speed rpm, ambient °C, coolant °C) of the last row
         self._row_key: tuple | None = None  # (speed, dt) of the stacked one-row matrix below
+
+    def reset(self) -> None:
+        """Forget the state: the next row starts the filter again (at rest, observed nodes set to the readings).
+        The per-level filter matrices stay cached."""
+        self.x = None
+        self._last = None
+        self._row_key = None
 
     def _level(self, speed: float, coolant_flow: float, dt: float) -> tuple:
         """(F = (I − KC)Φ, G = (I − KC)Γ, K) of one level, cached."""
@@ -171,8 +175,3 @@ class StateObserver:
             self.x = self._row_matrix @ v
         self._last = (time_s, speed, ambient, coolant)
         return self.x
-
-    def displacements(self, X: np.ndarray, speed: np.ndarray, reference: np.ndarray) -> np.ndarray:
-        """Network outputs (µm, rows × outputs) of node temperatures ``X`` relative to ``reference``."""
-        r2 = (np.asarray(speed, dtype=float) / self.reference_speed) ** 2
-        return (np.atleast_2d(X) - reference) @ self.output_matrix.T + np.atleast_1d(r2)[:, None] * self.centrifugal

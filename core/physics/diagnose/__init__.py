@@ -54,9 +54,10 @@ from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import adequacy, screening, selection
 from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
-from thermodrift.core.physics.diagnose.windows import DriverWindow, condition_blocks, driver_windows
+from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
 from thermodrift.core.physics.network import Network
 from thermodrift.core.physics.scenarios import Scenario
+from thermodrift.core.recording import Window
 
 MIN_HOURS = 4.0
 MIN_SAMPLES = 200
@@ -79,7 +80,7 @@ class Diagnosis:
     fit_rows: np.ndarray              # bool
     findings: list[dict[str, Any]]
     rejected: list[dict[str, Any]]
-    windows: list[DriverWindow]
+    windows: list[Window]
     baseline_network: Network
     augmented_network: Network
     screened: int

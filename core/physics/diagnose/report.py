@@ -18,7 +18,8 @@ its residual's correlation, its validation error against its fitted error, the h
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
-channel: measured, baseline, augmented) and, with a tracking URI, an MLflow run.
+channel: measured, baseline, augmented). Logging them to MLflow is the verb's
+(:func:`thermodrift.core.tracking.log_diagnosis`).
 """
 
 from __future__ import annotations
@@ -269,26 +270,3 @@ def plot_fit(d, path: Path) -> Path:
     fig.savefig(path, dpi=100, bbox_inches="tight")
     plt.close(fig)
     return path
-
-
-def log_to_mlflow(d, doc: dict[str, Any], out: Path, tracking_uri: str, run_name: str, seed: int) -> str:
-    """Log the RMSEs, findings and every file in ``out`` to an MLflow run; returns its id."""
-    import mlflow
-
-    from thermodrift.core import tracking
-
-    tracking.setup(tracking_uri, "diagnose")
-    with mlflow.start_run(run_name=run_name) as run:
-        mlflow.set_tags({"kind": "diagnosis", "network": d.baseline_network.name,
-                         "findings": ",".join(f["mechanism"] for f in d.findings) or "none"})
-        mlflow.log_params({"seed": seed, "screened": d.screened, "network": d.baseline_network.name})
-        metrics = {"seconds": d.seconds, "findings": float(len(d.findings))}
-        for part in ("baseline", "augmented"):
-            for key in ("rmse_um", "heldout_rmse_um"):
-                for c, v in doc[part][key].items():
-                    metrics[tracking.metric_key(f"{part}_{key}", c)] = v
-        for f in d.findings:
-            metrics[f"confidence/{f['mechanism']}"] = f["confidence"]
-        mlflow.log_metrics({k: float(v) for k, v in metrics.items() if np.isfinite(v)})
-        mlflow.log_artifacts(str(out))
-        return run.info.run_id

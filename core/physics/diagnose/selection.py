@@ -41,7 +41,6 @@ from thermodrift.core.physics.calibration import UNIDENTIFIABLE_RATIO, FreeParam
 from thermodrift.core.physics.diagnose.noise import NoiseModel
 from thermodrift.core.physics.diagnose.screening import (SHAPES, Candidate, Screen, _basis_of, _place_text, baseline_of,
                                                         restricted)
-from thermodrift.core.physics.mechanisms import FreeParam
 from thermodrift.core.physics.network import Network
 
 EQUIVALENT = 0.05   # rival within this share of the winner's balanced gain: a candidate for "not identifiable"
@@ -82,13 +81,13 @@ class Fitted:
     val_disp: float = float("nan")  # the same over the displacement channels alone
     val_disp0: float = float("nan")  # the baseline's noise-weighted sum of squares there, displacement channels
     val_disp_n: int = 0              # the number of displacement values it sums
-    declared: list = field(default_factory=list)  # (FreeParam, start) of every parameter the mechanism declares
+    declared: list = field(default_factory=list)  # (FreeParameter, start) of every parameter the mechanism declares
     fixed: dict[str, float] = field(default_factory=dict)  # parameters the data cannot identify, held at a value
     spread: float = 0.0  # standard error of its held-out block error (noise units per sample), set by the finder
 
 
 def _declared(cand: Candidate, base: Network,
-              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParam, float]]] | None:
+              scale_held: bool = False) -> tuple[Network, list[tuple[FreeParameter, float]]] | None:
     """The augmented network at start values and each free parameter with its start value.
 
     The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism; with
@@ -117,7 +116,7 @@ def _declared(cand: Candidate, base: Network,
     return None if scale_held and not scaled else (net, out)
 
 
-def _held_amplitudes(part: Candidate, free: list[FreeParam], amp: float) -> dict[str, float]:
+def _held_amplitudes(part: Candidate, free: list[FreeParameter], amp: float) -> dict[str, float]:
     """Amplitude parameters (neutral 0) of a shaped candidate that the fit does not search, at their default ×
     the screening's temperature amplitude ``amp``: a heat path held at its default would keep the default's
     temperature response, however much the screening scaled it (within the parameter's bounds; none when
@@ -169,17 +168,10 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     return fitted
 
 
-def _free_parameters(searched: list[tuple[FreeParam, float]]) -> list[FreeParameter]:
+def _free_parameters(searched: list[tuple[FreeParameter, float]]) -> list[FreeParameter]:
     """The calibration's free parameters (network units, within the physical bounds) of mechanism parameters
     at the given values."""
-    free = []
-    for fp, v in searched:
-        lo, hi = sorted((fp.network_value(fp.low), fp.network_value(fp.high)))
-        if fp.scale == "log":
-            lo, hi = lo * (1 + 1e-9), hi * (1 - 1e-9)  # exp(log(x)) can land a rounding step past a limit
-        free.append(FreeParameter(fp.name, fp.paths, float(np.clip(fp.network_value(v), lo, hi)), lo, hi,
-                                  fp.unit, log=fp.scale == "log"))
-    return free
+    return [fp.on_network_scale(v) for fp, v in searched]
 
 
 def _squares(resid: np.ndarray, noise: NoiseModel | None, nuisance: list[np.ndarray] | None = None,
@@ -278,7 +270,7 @@ def _linear_interval(res, path: str) -> tuple[float, float] | None:
     return None
 
 
-def trustworthy(value: float, interval: list[float] | None, fp: FreeParam) -> bool:
+def trustworthy(value: float, interval: list[float] | None, fp: FreeParameter) -> bool:
     """True when ``interval`` is finite, contains ``value`` and is narrower than the parameter's physical range
     (for a log parameter: its high/low ratio below the calibration's ``UNIDENTIFIABLE_RATIO``)."""
     if interval is None or not all(map(math.isfinite, interval)):
@@ -290,7 +282,7 @@ def trustworthy(value: float, interval: list[float] | None, fp: FreeParam) -> bo
     return fp.scale != "log" or (lo > 0 and hi / lo < UNIDENTIFIABLE_RATIO)
 
 
-def _intervals(network: Network, fit_recording, searched: list[tuple[FreeParam, float]],
+def _intervals(network: Network, fit_recording, searched: list[tuple[FreeParameter, float]],
                level: float) -> dict[str, list[float] | None]:
     """Intervals of the ``searched`` parameters at their values in ``network`` (the others held), from the
     calibration's Jacobian there (one evaluation, no search)."""

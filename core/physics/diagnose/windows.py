@@ -1,9 +1,9 @@
 """Time windows cut from every driver of a recording, not from the speed schedule alone.
 
-Each :class:`DriverWindow` names the driver that defines it and its kind:
+Each :class:`~thermodrift.core.recording.Window` names the driver that defines it and its kind:
 
-* speed: ``step`` (the first 15 min after each speed change), ``plateau`` (the rest of a running block),
-  ``stop`` (spindle stopped);
+* speed: the schedule windows of the one speed segmenter (:func:`thermodrift.core.recording.schedule_windows`):
+  ``step`` (the first 15 min after each speed change), ``running`` (the rest of a running block), ``stopped``;
 * cutting power and axis velocity: ``on`` (while the driver is active) and ``after`` (the hour after it stops);
 * coolant inlet: ``rising`` / ``falling`` half-cycles of the chiller (merged to at least 10 min);
 * ambient: ``warm`` / ``cool`` regimes (above or below its 6 h running mean, at least 1 h long);
@@ -15,27 +15,12 @@ Windows overlap (a speed step can fall in a warm-ambient regime); times are half
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
-STEP_S = 900.0
+from thermodrift.core.recording import Window, schedule_windows
+
 AFTER_S = 3600.0
-
-
-@dataclass(frozen=True)
-class DriverWindow:
-    """A window of one driver: ``driver`` (speed, cutting_power, ...), ``kind`` and [start_s, end_s)."""
-
-    name: str
-    driver: str
-    kind: str
-    start_s: float
-    end_s: float
-
-    def mask(self, time_s: np.ndarray) -> np.ndarray:
-        return (time_s >= self.start_s) & (time_s < self.end_s)
 
 
 def _runs(flag: np.ndarray) -> list[tuple[int, int, bool]]:
@@ -52,26 +37,7 @@ def _end(t: np.ndarray, i: int) -> float:
     return float(t[i]) if i < len(t) else float(t[-1] + dt)
 
 
-def speed_windows(t: np.ndarray, speed: np.ndarray, tol_rpm: float = 25.0) -> list[DriverWindow]:
-    out: list[DriverWindow] = []
-    change = np.flatnonzero(np.abs(np.diff(speed)) > tol_rpm) + 1
-    prev = None
-    for a, b in zip(np.r_[0, change], np.r_[change, len(speed)]):
-        level = float(np.median(speed[a:b]))
-        if prev is not None:
-            cut = min(int(np.searchsorted(t, t[a] + STEP_S)), b)
-            out.append(DriverWindow(f"speed step {prev:g}→{level:g} rpm at {t[a] / 3600:.2f} h", "speed", "step",
-                                    float(t[a]), _end(t, cut)))
-            a = cut
-        if a < b:
-            kind = "plateau" if level > 0 else "stop"
-            label = f"{level:g} rpm plateau" if level > 0 else "spindle stopped"
-            out.append(DriverWindow(f"{label} from {t[a] / 3600:.2f} h", "speed", kind, float(t[a]), _end(t, b)))
-        prev = level
-    return out
-
-
-def activity_windows(t: np.ndarray, values: np.ndarray, driver: str) -> list[DriverWindow]:
+def activity_windows(t: np.ndarray, values: np.ndarray, driver: str) -> list[Window]:
     """``on`` while |values| exceeds 1 % of its maximum, ``after`` for the hour after each stretch ends."""
     top = float(np.abs(values).max()) if len(values) else 0.0
     if top <= 0:
@@ -79,11 +45,11 @@ def activity_windows(t: np.ndarray, values: np.ndarray, driver: str) -> list[Dri
     out = []
     for a, b, on in _runs(np.abs(values) > 0.01 * top):
         if on:
-            out.append(DriverWindow(f"{driver} on from {t[a] / 3600:.2f} h", driver, "on", float(t[a]), _end(t, b)))
+            out.append(Window(f"{driver} on from {t[a] / 3600:.2f} h", "on", float(t[a]), _end(t, b), driver))
             if b < len(t):
                 stop = min(int(np.searchsorted(t, t[b] + AFTER_S)), len(t))
-                out.append(DriverWindow(f"{driver} off from {t[b] / 3600:.2f} h", driver, "after", float(t[b]),
-                                        _end(t, stop)))
+                out.append(Window(f"{driver} off from {t[b] / 3600:.2f} h", "after", float(t[b]), _end(t, stop),
+                                  driver))
     return out
 
 
@@ -91,26 +57,26 @@ def _smooth(x: np.ndarray, n: int) -> np.ndarray:
     return pd.Series(x).rolling(max(n, 1), center=True, min_periods=1).mean().to_numpy()
 
 
-def _regimes(t: np.ndarray, flag: np.ndarray, driver: str, kinds: tuple[str, str], min_s: float) -> list[DriverWindow]:
+def _regimes(t: np.ndarray, flag: np.ndarray, driver: str, kinds: tuple[str, str], min_s: float) -> list[Window]:
     """Windows of each stretch of ``flag`` (True: kinds[0]) longer than ``min_s``; shorter ones join the previous."""
-    out: list[DriverWindow] = []
+    out: list[Window] = []
     for a, b, on in _runs(flag):
         kind = kinds[0] if on else kinds[1]
         if out and (t[min(b, len(t) - 1)] - t[a] < min_s or out[-1].kind == kind):
             last = out.pop()
-            out.append(DriverWindow(last.name, driver, last.kind, last.start_s, _end(t, b)))
+            out.append(Window(last.name, last.kind, last.start_s, _end(t, b), driver))
             continue
-        out.append(DriverWindow(f"{driver} {kind} from {t[a] / 3600:.2f} h", driver, kind, float(t[a]), _end(t, b)))
+        out.append(Window(f"{driver} {kind} from {t[a] / 3600:.2f} h", kind, float(t[a]), _end(t, b), driver))
     return out
 
 
-def driver_windows(recording) -> list[DriverWindow]:
+def driver_windows(recording) -> list[Window]:
     """Windows from every driver the recording carries (see the module docstring)."""
     t = recording.time_s
     dt = float(np.median(np.diff(t))) if len(t) > 1 else 1.0
-    out: list[DriverWindow] = []
+    out: list[Window] = []
     if recording.speed is not None:
-        out += speed_windows(t, recording.speed.to_numpy(dtype=float))
+        out += schedule_windows(t, recording.speed.to_numpy(dtype=float))
     for role in ("cutting_power", "axis_velocity"):
         for c in recording.columns(role)[:1]:
             out += activity_windows(t, recording.data[c].to_numpy(dtype=float), role)
@@ -132,8 +98,8 @@ def driver_windows(recording) -> list[DriverWindow]:
             for a, b, fast in _runs(np.abs(fastest) > q):
                 if fast and t[min(b, len(t) - 1)] - t[a] >= 600.0:
                     kind = "fast heating" if np.mean(fastest[a:b]) > 0 else "fast cooling"
-                    out.append(DriverWindow(f"{kind} from {t[a] / 3600:.2f} h", "temperature_rate", kind,
-                                            float(t[a]), _end(t, b)))
+                    out.append(Window(f"{kind} from {t[a] / 3600:.2f} h", kind, float(t[a]), _end(t, b),
+                                      "temperature_rate"))
     return out
 
 

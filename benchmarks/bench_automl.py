@@ -1,0 +1,229 @@
+"""AutoML benchmark: ``thermodrift automl`` against the best single family chosen with hindsight and FLAML.
+
+Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under three condition-held-out
+splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm condition held out,
+training on every earlier condition; the 4500 rpm condition held out, the last one), and the four reference
+machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
+their last working condition held out, every displacement channel). The default run is two small reference
+machines with small budgets (under 10 minutes on 2 cores).
+
+Per task:
+
+* automl at its default budget (``--full``) and at three more budgets (fits): held-out RMSE (µm, mean over
+  targets), wall time (s), the chosen pipeline;
+* the best single family with hindsight: every family untuned on all sensors, plus (``--full``) 10 TPE trials
+  of its own search space (networks at a ninth of their epochs), each scored on the held-out part; the best;
+* FLAML (``pip install -e ".[compare]"``), given automl's wall time at the default budget on one core, per
+  target, on the raw inputs and on automl's default feature stage (filtered temperatures and drive heat terms),
+  its validation the last 25 % of the training rows (time order kept); left out, and said so, when FLAML is not
+  installed.
+
+Prints one table of held-out RMSE and the ratios automl / hindsight and automl / FLAML, and draws the
+time-to-quality curves (held-out RMSE against wall time per budget) into ``--figure``. Results are cached per
+task in ``--cache`` (JSON), so ``--full`` can run in pieces and resumes. Wall times depend on the machine's load.
+
+Run::
+
+    python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from thermodrift.compensator.features import FeatureStage
+from thermodrift.core import registry, splits
+from thermodrift.core.automl import job as automl_job, space
+from thermodrift.core.automl.search import Settings
+from thermodrift.core.metrics import evaluate
+from thermodrift.core.study import INPUT_ROLES, Job, JobSpec
+
+FL = {"dataset": "fl_thermal", "targets": ["ch3(um)"]}
+TASKS = {
+    "fl_5000rpm": {**FL, "split": "time_window",
+                   "split_params": {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}},
+    "fl_3500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3500rpm"]}},
+    "fl_4500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["4500rpm"]}},
+    **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
+       for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
+}
+QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
+         "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
+FULL = {"budgets": [30, 60, 240], "default": Settings().budget_fits, "families": None, "tpe": 10}
+
+
+def spec_of(task: dict, seed: int, data: str | None) -> JobSpec:
+    params = {"path": data} if task["dataset"] == "fl_thermal" and data else {}
+    return JobSpec(dataset=task["dataset"], dataset_params=params, model="mlr", split=task["split"],
+                   split_params=task["split_params"], targets=task["targets"], seed=seed, storage=None,
+                   progress=False)
+
+
+def held_out(job) -> dict:
+    return {"rmse": job.summary_metrics("model")["rmse"],
+            "per_target": {t: job.summary_metrics("model", t)["rmse"] for t in job.targets},
+            "mlr": job.summary_metrics("mlr")["rmse"], "persistence": job.summary_metrics("persistence")["rmse"]}
+
+
+def run_automl(spec: JobSpec, recording, budget: int, families) -> dict:
+    started = time.perf_counter()
+    result = automl_job.run(spec, Settings(budget_fits=budget, families=families), recording=recording)
+    chosen = result.search.ensemble or result.search.best.candidate.params
+    return {"budget": budget, "wall_s": time.perf_counter() - started, **held_out(result.job),
+            "chosen": result.job.spec.model, "label": json.dumps(chosen, default=str)[:300],
+            "inner_score": result.job.valid_rmse}
+
+
+def hindsight(spec: JobSpec, recording, families, tpe: int) -> dict:
+    """Every family untuned (and with ``tpe`` trials), scored on the held-out part; the best of them."""
+    out = {}
+    for fam in space.families(only=families):
+        params = {}
+        if fam.network:
+            params = space.at_rung(space.Candidate({"model": fam.name, "model_params": {}}), 1, fam, 3)[
+                "model_params"]
+        for trials in ([0, tpe] if tpe else [0]):
+            key = f"{fam.name}{'' if not trials else f' tpe{trials}'}"
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    job = Job(JobSpec(**{**spec.__dict__, "model": fam.name, "model_params": params,
+                                         "selector": "all", "n_trials": trials})).run(recording)
+                out[key] = held_out(job)["rmse"]
+            except Exception as exc:  # a family that cannot run on this task is noted, the others go on
+                out[key] = float("nan")
+                print(f"  hindsight {key}: failed ({type(exc).__name__}: {str(exc)[:120]})")
+    finite = {k: v for k, v in out.items() if np.isfinite(v)}
+    best = min(finite, key=finite.get)
+    return {"best": best, "rmse": finite[best], "all": out}
+
+
+def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
+    """FLAML on raw inputs and on the default feature stage, ``seconds`` in all, one core; None without FLAML."""
+    try:
+        from flaml import AutoML
+    except ImportError:
+        return None
+    (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
+    targets = automl_job.targets_of(recording, spec.targets)
+    inputs = [c for role in (*INPUT_ROLES, "speed", "cutting_power") for c in recording.columns(role)]
+    raw = recording.data[inputs].to_numpy(dtype=float)
+    roles = {c: recording.channels[c].role for c in inputs}
+    stage = FeatureStage.fit(raw[fold.train], inputs, roles, recording.time_s[fold.train],
+                             space.DEFAULT_FEATURES["taus_s"], space.DEFAULT_FEATURES["powers"])
+    variants = {"raw": raw[:, [i for i, c in enumerate(inputs) if roles[c] in INPUT_ROLES]],
+                "features": stage.transform(raw[:, [inputs.index(c) for c in stage.inputs]])}
+    out = {}
+    for name, X in variants.items():
+        pred = np.zeros((len(fold.test), len(targets)))
+        for k, target in enumerate(targets):
+            y = recording.data[target].to_numpy(dtype=float)
+            automl = AutoML()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                automl.fit(X[fold.train], y[fold.train], task="regression", metric="rmse", n_jobs=1,
+                           time_budget=max(1.0, seconds / (2 * len(targets))), eval_method="holdout",
+                           split_type="time", split_ratio=0.25, seed=spec.seed, verbose=0)
+            pred[:, k] = automl.predict(X[fold.test])
+        out[name] = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
+    return out
+
+
+def run_task(name: str, conf: dict, args) -> dict:
+    task = TASKS[name]
+    spec = spec_of(task, args.seed, args.data)
+    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    budgets = sorted(set(conf["budgets"]) | {conf["default"]})
+    runs = []
+    for b in budgets:
+        runs.append(run_automl(spec, recording, b, conf["families"]))
+        r = runs[-1]
+        print(f"  {name}: automl budget {b}: held-out RMSE {r['rmse']:.3f} µm in {r['wall_s']:.0f} s "
+              f"({r['chosen']})", flush=True)
+    default = next(r for r in runs if r["budget"] == conf["default"])
+    best = hindsight(spec, recording, conf["families"], conf["tpe"])
+    print(f"  {name}: hindsight best {best['best']} {best['rmse']:.3f} µm", flush=True)
+    flaml = flaml_scores(spec, recording, default["wall_s"])
+    return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
+
+
+def table(results: list[dict]) -> str:
+    head = ("| task | automl RMSE (µm) | budget (fits) | wall s | hindsight best | its RMSE | automl / hindsight "
+            "| FLAML raw | FLAML features | automl / FLAML best |")
+    lines = [head, "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|"]
+    within = below = 0
+    for r in results:
+        d = next(a for a in r["automl"] if a["budget"] == r["default_budget"])
+        ratio = d["rmse"] / r["hindsight"]["rmse"]
+        within += ratio <= 1.2
+        fl = r["flaml"]
+        fbest = min(fl.values()) if fl else float("nan")
+        below += bool(fl) and d["rmse"] < fbest
+        lines.append(f"| {r['task']} | {d['rmse']:.3f} | {d['budget']} | {d['wall_s']:.0f} | {r['hindsight']['best']} "
+                     f"| {r['hindsight']['rmse']:.3f} | {ratio:.2f} | "
+                     + (f"{fl['raw']:.3f} | {fl['features']:.3f} | {d['rmse'] / fbest:.2f} |" if fl
+                        else "not installed | not installed | — |"))
+    lines.append(f"\nautoml within 1.2x of the hindsight best on {within} of {len(results)} tasks; below FLAML on "
+                 f"{below} of {sum(bool(r['flaml']) for r in results)} tasks with FLAML")
+    return "\n".join(lines)
+
+
+def figure(results: list[dict], path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7, 4))
+    ax = fig.subplots()
+    for i, r in enumerate(results):
+        pts = sorted((a["wall_s"], a["rmse"] / r["hindsight"]["rmse"]) for a in r["automl"])
+        ax.plot(*zip(*pts), "o-", color=f"C{i}", label=r["task"])
+        if r["flaml"]:
+            fl = min(r["flaml"].values()) / r["hindsight"]["rmse"]
+            d = next(a for a in r["automl"] if a["budget"] == r["default_budget"])
+            ax.plot([d["wall_s"]], [fl], "x", color=f"C{i}", ms=8)
+    ax.axhline(1.2, color="0.5", lw=0.8, ls="--")
+    ax.set_xscale("log")
+    ax.set_xlabel("wall time (s; o: automl at its budgets, x: FLAML)")
+    ax.set_ylabel("held-out RMSE / hindsight best")
+    ax.legend(fontsize=7)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--full", action="store_true", help="every task, the default budget and three others")
+    parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}")
+    parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
+    parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
+    args = parser.parse_args()
+    conf = dict(FULL if args.full else QUICK)
+    names = args.tasks or (list(TASKS) if args.full else QUICK["tasks"])
+    unknown = [n for n in names if n not in TASKS]
+    if unknown:
+        raise SystemExit(f"bench_automl: unknown task(s) {unknown}; choose from {', '.join(TASKS)}")
+    args.cache.mkdir(parents=True, exist_ok=True)
+    results = []
+    for name in names:
+        path = args.cache / f"{name}-{'full' if args.full else 'quick'}-s{args.seed}.json"
+        if path.exists():
+            print(f"{name}: cached in {path}")
+            results.append(json.loads(path.read_text(encoding="utf-8")))
+            continue
+        print(f"{name}: running", flush=True)
+        results.append(run_task(name, conf, args))
+        path.write_text(json.dumps(results[-1], indent=1, default=float), encoding="utf-8")
+    print(table(results))
+    args.figure.parent.mkdir(parents=True, exist_ok=True)
+    figure(results, args.figure)
+    print(f"figure: {args.figure}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,67 @@
+"""Scoring one candidate pipeline on the inner folds: fit on each fold's training rows, predict its validation
+rows with the training rows before them as history, RMSE (µm) per fold and target, and its costs."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from thermodrift.core import efficiency, registry
+from thermodrift.core.automl.folds import aggregate
+from thermodrift.core.metrics import evaluate
+from thermodrift.core.study import INPUT_ROLES, model_inputs, predict_rows
+
+
+@dataclass
+class Evaluation:
+    """A candidate's inner-fold result: RMSE (µm, mean over targets) per fold, per target (mean over folds), the
+    aggregated score, the validation predictions per fold (for the ensemble), and costs of the last fold's fit."""
+
+    fold_rmse: list[float]
+    target_rmse: dict[str, float]
+    score: float
+    predictions: list[np.ndarray] = field(repr=False, default_factory=list)
+    fit_s: float = 0.0
+    costs: dict[str, float] = field(default_factory=dict)
+
+
+class Evaluator:
+    """Fits ``pipeline`` candidates on the inner ``folds`` of ``recording`` (all inside ``outer_train``)."""
+
+    def __init__(self, recording, outer_train: np.ndarray, targets: list[str], folds, seed: int = 0):
+        self.recording, self.targets, self.folds, self.seed = recording, list(targets), list(folds), seed
+        self.outer_train = np.asarray(outer_train)
+        cls = registry.get("model", "pipeline").factory
+        inputs = [c for role in INPUT_ROLES for c in recording.columns(role)]
+        self.X = model_inputs(recording, inputs, cls, self.targets)
+        self.y = recording.data[self.targets]
+        self.truth = [self.y.iloc[f.test] for f in self.folds]
+
+    def pipeline(self, params: dict):
+        return registry.create("model", "pipeline", **{**params, "random_state": self.seed})
+
+    def evaluate(self, params: dict, measure_costs: bool = True) -> Evaluation:
+        """Fit and score ``params`` (a pipeline's parameters) on every fold; exceptions propagate."""
+        preds, fold_rmse, per_target, fit_s, model = [], [], [], 0.0, None
+        for fold, truth in zip(self.folds, self.truth):
+            started = time.perf_counter()
+            model = self.pipeline(params).fit(self.X.iloc[fold.train], self.y.iloc[fold.train])
+            fit_s += time.perf_counter() - started
+            pred = predict_rows(model, self.X, fold.test, allowed=self.outer_train)
+            if not np.isfinite(pred).all():
+                raise ValueError("non-finite predictions on an inner fold")
+            metrics = evaluate(truth, pred)
+            preds.append(pred)
+            fold_rmse.append(float(metrics["mean"]["rmse"]))
+            per_target.append([float(metrics[t]["rmse"]) for t in self.targets])
+        costs = efficiency.measure(model, self.X, self.folds[-1].test, fit_s / len(self.folds)) \
+            if measure_costs else {}
+        target_rmse = dict(zip(self.targets, np.mean(per_target, axis=0).tolist()))
+        return Evaluation(fold_rmse, target_rmse, aggregate(fold_rmse), preds, fit_s, costs)
+
+    def score_predictions(self, preds: list[np.ndarray]) -> tuple[list[float], float]:
+        """Per-fold RMSE (µm, mean over targets) and the aggregated score of given fold predictions."""
+        rmse = [float(evaluate(t, p)["mean"]["rmse"]) for t, p in zip(self.truth, preds)]
+        return rmse, aggregate(rmse)

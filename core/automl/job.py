@@ -1,0 +1,139 @@
+"""One automl job: recording → outer split → inner forward-chaining folds inside the training part → search →
+the chosen pipeline (or ensemble) refitted on the whole training part → scored once on the held-out part beside
+the persistence and MLR baselines, as a :class:`thermodrift.core.study.JobResult` like every job's.
+
+Only the outer training rows reach the search: the held-out rows are touched once, by the refit model's and the
+baselines' predictions (with every earlier input row as history, as a controller would have them).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+import warnings
+from dataclasses import dataclass
+
+import optuna
+import torch
+
+from thermodrift.core import efficiency, registry, schema, splits
+from thermodrift.core.automl import folds as inner, leaderboard
+from thermodrift.core.automl.evaluate import Evaluator
+from thermodrift.core.automl.search import Search, SearchResult, Settings
+from thermodrift.core.errors import InputError
+from thermodrift.core.metrics import evaluate
+from thermodrift.core.study import FoldResult, Job, JobResult, JobSpec, model_inputs, predict_rows
+
+
+@dataclass
+class AutoMLResult:
+    """The outer result (``job``: model "pipeline" or "ensemble" with the chosen parameters), the search and its
+    leaderboard."""
+
+    job: JobResult
+    search: SearchResult
+    leaderboard: object  # pandas DataFrame
+    study_name: str
+    wall_s: float
+
+
+def study_name(spec: JobSpec, settings: Settings) -> str:
+    """Stable name from what defines the search except the budget, so a re-run resumes (a larger budget goes on)."""
+    key = {k: v for k, v in dataclasses.asdict(spec).items()
+           if k in ("dataset", "dataset_params", "split", "split_params", "targets", "input_roles", "seed")}
+    key["settings"] = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("budget_fits", "timeout_s")}
+    digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:10]
+    return f"automl-{spec.dataset}-{spec.split}-s{spec.seed}-{digest}"
+
+
+def targets_of(recording, wanted: list[str] | None) -> list[str]:
+    available = recording.columns("displacement")
+    if not available:
+        raise InputError(f"{recording.source}: the recording has no displacement channel to model")
+    targets = list(wanted or available)
+    missing = [t for t in targets if t not in available]
+    if missing:
+        raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
+                         hint=f"choose from {available}")
+    return targets
+
+
+def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None) -> AutoMLResult:
+    """Search, refit and evaluate (see the module docstring). ``spec`` gives dataset, split, targets, seed,
+    storage and progress; its model, selector and optimizer are not used (the search chooses)."""
+    started = time.perf_counter()
+    if settings.budget_fits < 1:
+        raise InputError(f"automl.budget_fits must be 1 or more, got {settings.budget_fits}")
+    if settings.timeout_s is not None and settings.timeout_s <= 0:
+        raise InputError(f"automl.timeout_s must be positive or null, got {settings.timeout_s}")
+    if recording is None:
+        recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    targets = targets_of(recording, spec.targets)
+    outer = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
+    if len(outer) != 1:
+        raise InputError(f"automl takes a split with one held-out part; split {spec.split!r} gives {len(outer)}",
+                         hint="use split=condition_holdout or split=time_window")
+    fold = outer[0]
+    torch.set_num_threads(spec.threads)
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    folds = inner.inner_folds(recording, fold.train, settings.max_folds)
+    ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
+    name = spec.study_name or study_name(spec, settings)
+    study = _study(spec, name)
+    done = sum(t.state.is_finished() for t in study.trials)
+    if done:
+        say(f"automl study {name} resumed: {done} candidates found")
+    result = Search(ev, study, settings, say, spec.progress).run()
+    model_name, params = result.chosen()
+    job = refit_and_evaluate(spec, recording, fold, targets, model_name, params,
+                             result.ensemble["score"] if result.ensemble else result.best.score)
+    board = leaderboard.table(result.entries, folds, targets, result.ensemble)
+    return AutoMLResult(job, result, board, name, time.perf_counter() - started)
+
+
+def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: list[str], model_name: str,
+                       params: dict, inner_score: float) -> JobResult:
+    """The chosen model refitted on ``fold.train`` and scored on ``fold.test`` beside ``spec.baselines`` (on every
+    input temperature), as the :class:`JobResult` of a job with ``model=model_name``."""
+    inputs = [c for role in spec.input_roles for c in recording.columns(role)]
+    y_all = recording.data[targets]
+    preds, model, cost = {}, None, {}
+    for who, name, p in [("model", model_name, params)] + [(b, b, {}) for b in spec.baselines]:
+        cls = registry.get("model", name).factory
+        frame = model_inputs(recording, inputs, cls, targets)
+        kwargs = dict(p)
+        if registry.accepts(cls, "random_state"):
+            kwargs.setdefault("random_state", spec.seed)
+        started = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            m = registry.create("model", name, **kwargs).fit(frame.iloc[fold.train], y_all.iloc[fold.train])
+        fit_s = time.perf_counter() - started
+        if who == "model":
+            model, cost = m, efficiency.measure(m, frame, fold.train, fit_s)
+        preds[who] = predict_rows(m, frame, fold.test)
+    y_test = y_all.iloc[fold.test]
+    result = FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
+                        {who: evaluate(y_test, p) for who, p in preds.items()}, selected=_selected(model),
+                        best_params=params, valid_rmse=float(inner_score), model=model, efficiency=cost)
+    job_spec = dataclasses.replace(spec, model=model_name, model_params=params, selector="all", n_trials=0)
+    return JobResult(job_spec, [result], splits.make_split(spec.split, seed=spec.seed, **spec.split_params).protocol,
+                     notes=list(getattr(recording, "notes", [])), recording=recording)
+
+
+def _selected(model) -> list[str]:
+    members = getattr(model, "members_", None)
+    if members is not None:
+        return sorted({c for m in members for c in getattr(m, "selected_", [])})
+    return list(getattr(model, "selected_", []))
+
+
+def _study(spec: JobSpec, name: str) -> optuna.Study:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=8, multivariate=True, group=True)
+        storage = Job.storage(spec.storage) if spec.storage else None
+        return schema.retrying(lambda: optuna.create_study(study_name=name, storage=storage, sampler=sampler,
+                                                           direction="minimize", load_if_exists=True), spec.storage)

@@ -1,0 +1,292 @@
+"""The search: a portfolio first, then Optuna's TPE over the conditional space of the promising families, then
+successive halving of the networks on epochs, then the greedy ensemble.
+
+The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
+``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
+one trial of an Optuna study (portfolio and promoted candidates are enqueued trials carrying the candidate as a
+user attribute; TPE trials sample the space), so a re-run with the same storage resumes: finished trials count
+against the budget and are not run again.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+import warnings
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+import optuna
+
+from thermodrift.core import resume
+from thermodrift.core.automl import space
+from thermodrift.core.automl.ensemble import caruana
+from thermodrift.core.automl.evaluate import Evaluation, Evaluator
+
+PHASE_ATTR = "automl.phase"
+PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is within this factor of the best
+
+
+@dataclass
+class Settings:
+    """``budget_fits``: fits in all (default sized for ≤ 10 min on FL_THERMAL, 2 cores); ``timeout_s``: optional
+    wall-clock limit (load-dependent); ``max_folds``: inner folds; ``tpe_families``: how many of the best
+    cheap families (by their portfolio score) TPE searches; ``top_rung``: network fidelities above the portfolio's;
+    ``ensemble_pool``: candidates the greedy ensemble draws from; ``families``: restrict to these models."""
+
+    budget_fits: int = 120
+    timeout_s: float | None = None
+    max_folds: int = 3
+    tpe_families: int = 4
+    top_rung: int = 3
+    ensemble_pool: int = 10
+    ensemble_steps: int = 25
+    families: list[str] | None = None
+
+
+@dataclass
+class Entry:
+    """One leaderboard line: a candidate, its evaluation (None when it failed) and the error."""
+
+    number: int
+    candidate: space.Candidate
+    evaluation: Evaluation | None
+    error: str = ""
+    phase: str = ""
+
+    @property
+    def score(self) -> float:
+        return self.evaluation.score if self.evaluation is not None else float("inf")
+
+
+@dataclass
+class SearchResult:
+    entries: list[Entry]
+    best: Entry
+    ensemble: dict | None  # {"members": [...params], "weights": [...], "score", "fold_rmse"} when it won
+    fits: int
+    folds: list = field(default_factory=list)
+    stopped_by: str = "budget"
+
+    def chosen(self) -> tuple[str, dict]:
+        """The registry model and parameters of the result: an ensemble when it beat the best pipeline."""
+        if self.ensemble is not None:
+            return "ensemble", {"members": self.ensemble["members"], "weights": self.ensemble["weights"]}
+        return "pipeline", dict(self.best.candidate.params)
+
+
+class Search:
+    """Runs the search of ``settings`` with ``evaluator`` in ``study`` (an Optuna study, usually in storage)."""
+
+    def __init__(self, evaluator: Evaluator, study: optuna.Study, settings: Settings,
+                 say: Callable[[str], None] = lambda line: None, progress: bool = True):
+        self.ev, self.study, self.settings, self.say, self.progress = evaluator, study, settings, say, progress
+        self.families = {f.name: f for f in space.families(only=settings.families)}
+        self.selectors = space.selectors()
+        self.n_folds = len(evaluator.folds)
+        self.memory: dict[int, Evaluation] = {}  # this process's evaluations (with predictions) by trial number
+        self.failed_families: set[str] = set()
+        self.started = time.perf_counter()
+        self.stopped_by = "budget"
+        self.bar = None
+
+    # ------------------------------------------------------------------------------------------------ budget
+    def fits_used(self) -> int:
+        return sum(int(t.user_attrs.get("fits", 0)) for t in self.study.trials if t.state.is_finished())
+
+    def _room(self) -> bool:
+        if self.settings.timeout_s is not None and time.perf_counter() - self.started > self.settings.timeout_s:
+            self.stopped_by = "timeout_s (wall clock)"
+            return False
+        return self.fits_used() + self.n_folds <= self.settings.budget_fits
+
+    # ------------------------------------------------------------------------------------------------ phases
+    def run(self) -> SearchResult:
+        resume.fail_dead_trials(self.study)
+        if self.progress:
+            from tqdm import tqdm
+            self.bar = tqdm(total=self.settings.budget_fits, initial=min(self.fits_used(), self.settings.budget_fits),
+                            unit="fit", desc="automl", file=sys.stderr, dynamic_ncols=True)
+        try:
+            self._phase("portfolio", lambda: [(c, "portfolio") for c in
+                                              space.portfolio(list(self.families.values()), self.selectors)])
+            self._tpe()
+            self._promote()
+        finally:
+            if self.bar is not None:
+                self.bar.close()
+        entries = self.entries()
+        ok = [e for e in entries if e.evaluation is not None]
+        if not ok:
+            from thermodrift.core.errors import InputError
+            reasons = sorted({e.error for e in entries})
+            raise InputError(f"every automl candidate failed: {'; '.join(reasons)[:300]}")
+        best = self._best(ok)
+        return SearchResult(entries, best, self._ensemble(ok, best), self.fits_used(), self.ev.folds,
+                            self.stopped_by)
+
+    def _phase(self, name: str, make: Callable[[], list[tuple[space.Candidate, str]]]) -> None:
+        """Enqueue the phase's candidates once (a resumed study keeps them) and run the waiting trials."""
+        key = f"{PHASE_ATTR}.{name}"
+        if key not in self.study.user_attrs:
+            for cand, phase in make():
+                self.study.enqueue_trial({}, user_attrs={"candidate": cand.to_json(), "phase": phase},
+                                         skip_if_exists=False)
+            self.study.set_user_attr(key, True)
+        while self._waiting() and self._room():
+            self._trial()
+
+    def _waiting(self) -> bool:
+        return any(t.state == optuna.trial.TrialState.WAITING for t in self.study.trials)
+
+    def _tpe(self) -> None:
+        """TPE over the settings of the best cheap families: a medium or expensive family's fit costs minutes, so
+        it takes part untuned (and, for a network, through successive halving), which keeps the default budget
+        within its time."""
+        ranked = [f for f in self._family_ranking() if self.families[f].cost == "cheap"]
+        chosen = [f for f in ranked if f not in self.failed_families][:self.settings.tpe_families]
+        if not chosen:
+            return
+        fams = [self.families[f] for f in sorted(chosen)]
+        while self._room():
+            self._trial(lambda trial: space.suggest(trial, fams, self.selectors))
+
+    def _promote(self) -> None:
+        """Successive halving on epochs: the best third of each network family's candidates at a rung is retrained
+        at the next rung (3× the epochs), up to ``top_rung``."""
+        for rung in range(1, self.settings.top_rung + 1):
+            key = f"{PHASE_ATTR}.rung{rung}"
+
+            def make(rung=rung) -> list[tuple[space.Candidate, str]]:
+                out = []
+                entries = [e for e in self.entries() if e.evaluation is not None]
+                overall = min((e.score for e in entries), default=float("inf"))
+                for fam in (f for f in self.families.values() if f.network):
+                    at = sorted((e for e in entries if e.candidate.family == fam.name
+                                 and e.candidate.rung == rung - 1), key=lambda e: e.score)
+                    keep = at[:max(1, len(at) // space.RUNG_EPOCH_FACTOR)] if at else []
+                    # a network far behind the best pipeline is not worth more epochs
+                    for e in keep:
+                        if e.score <= PROMOTE_WITHIN * overall:
+                            out.append((space.Candidate(e.candidate.params, rung, "promoted",
+                                                        f"rung {rung} of #{e.number}"), f"rung{rung}"))
+                return out
+            if key not in self.study.user_attrs and not self._room():
+                return
+            self._phase(f"rung{rung}", make)
+
+    # ------------------------------------------------------------------------------------------------ trials
+    def _trial(self, sample: Callable[[optuna.Trial], space.Candidate] | None = None) -> None:
+        with warnings.catch_warnings():  # ask/tell: the trials' owner attribute marks a killed run's trials
+            warnings.simplefilter("ignore", UserWarning)
+            trial = self.study.ask()
+        resume.claim(trial)
+        text = trial.user_attrs.get("candidate")
+        cand = space.Candidate.from_json(text) if text else sample(trial)
+        if not text:
+            trial.set_user_attr("candidate", cand.to_json())
+            trial.set_user_attr("phase", "tpe")
+        family = self.families.get(cand.family)
+        if family is None or cand.family in self.failed_families:
+            trial.set_user_attr("fits", 0)
+            trial.set_user_attr("skipped", "its family failed before" if family else "unknown family")
+            self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
+            return
+        params = space.at_rung(cand, cand.rung, family, self.settings.top_rung)
+        trial.set_user_attr("fits", self.n_folds)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                ev = self.ev.evaluate(params)
+        except Exception as exc:  # a failing candidate is recorded and the search goes on
+            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:400]
+            trial.set_user_attr("error", reason)
+            self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
+            if trial.user_attrs.get("phase") == "portfolio" and cand.family not in self.failed_families:
+                self.failed_families.add(cand.family)
+                self.say(f"thermodrift: warning: automl: model {cand.family} failed and is left out: {reason}")
+            self._tick()
+            return
+        for key, value in {"fold_rmse": ev.fold_rmse, "target_rmse": ev.target_rmse, "fit_s": ev.fit_s,
+                           "costs": ev.costs, "params": params}.items():
+            trial.set_user_attr(key, json.loads(json.dumps(value, default=float)))
+        self.study.tell(trial, ev.score)
+        self.memory[trial.number] = ev
+        self._tick()
+
+    def _tick(self) -> None:
+        if self.bar is None:
+            return
+        self.bar.n = min(self.fits_used(), self.settings.budget_fits)
+        scores = [t.value for t in self.study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+        if scores:
+            self.bar.set_postfix_str(f"best inner score {min(scores):.3f} µm", refresh=False)
+        self.bar.refresh()
+
+    # ------------------------------------------------------------------------------------------------ results
+    def entries(self) -> list[Entry]:
+        """Every finished candidate trial, failed ones included, in trial order."""
+        out = []
+        for t in self.study.trials:
+            if not t.state.is_finished() or "candidate" not in t.user_attrs or "skipped" in t.user_attrs:
+                continue
+            cand = space.Candidate.from_json(t.user_attrs["candidate"])
+            ev = None
+            if t.state == optuna.trial.TrialState.COMPLETE:
+                ev = self.memory.get(t.number) or Evaluation(
+                    list(t.user_attrs["fold_rmse"]), dict(t.user_attrs["target_rmse"]), float(t.value), [],
+                    float(t.user_attrs.get("fit_s", 0.0)), dict(t.user_attrs.get("costs", {})))
+            out.append(Entry(t.number, cand, ev, t.user_attrs.get("error", ""), t.user_attrs.get("phase", "")))
+        return out
+
+    def _family_ranking(self) -> list[str]:
+        best: dict[str, float] = {}
+        for e in self.entries():
+            if e.evaluation is not None:
+                best[e.candidate.family] = min(best.get(e.candidate.family, np.inf), e.score)
+        return sorted(best, key=lambda f: (best[f], f))
+
+    def _full(self, e: Entry) -> bool:
+        """Whether ``e`` was trained as its refit will be: any family but a network below its top rung."""
+        fam = self.families.get(e.candidate.family)
+        return fam is None or not fam.network or e.candidate.rung == self.settings.top_rung
+
+    def _best(self, ok: list[Entry]) -> Entry:
+        """The best candidate by score among those trained as the refit will be (else among all)."""
+        return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
+
+    def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
+        """Greedy ensemble over a diverse pool: the best candidate of each family with raw inputs and with
+        features (members that err differently are what an ensemble gains from), best first."""
+        top = self.settings.top_rung
+        pool, seen = [], set()
+        for e in sorted(ok, key=lambda e: (e.score, e.number)):
+            key = (e.candidate.family, e.candidate.params.get("features") is None)
+            if key in seen or not self._full(e):
+                continue
+            seen.add(key)
+            pool.append(e)
+            if len(pool) == self.settings.ensemble_pool:
+                break
+        if len(pool) < 2:
+            return None
+        preds = []
+        for e in pool:  # a resumed run recomputes the predictions it does not hold (deterministic, not budgeted)
+            if e.evaluation is None or not e.evaluation.predictions:
+                fam = self.families[e.candidate.family]
+                e.evaluation = self.ev.evaluate(space.at_rung(e.candidate, e.candidate.rung, fam, top),
+                                                measure_costs=False)
+            preds.append(e.evaluation.predictions)
+        weights, score = caruana(preds, lambda p: self.ev.score_predictions(p)[1], self.settings.ensemble_steps)
+        used = np.flatnonzero(weights > 0)
+        if len(used) < 2 or not score < best.score:
+            return None
+        fams = {e.candidate.family: self.families[e.candidate.family] for e in pool}
+        mix = [sum(weights[i] * preds[i][k] for i in used) for k in range(len(self.ev.folds))]
+        fold_rmse, agg = self.ev.score_predictions(mix)
+        return {"members": [space.at_rung(pool[i].candidate, pool[i].candidate.rung, fams[pool[i].candidate.family],
+                                          top) for i in used],
+                "weights": [float(weights[i]) for i in used], "numbers": [pool[i].number for i in used],
+                "score": agg, "fold_rmse": fold_rmse}

@@ -1,0 +1,221 @@
+"""The joint, conditional search space of ``thermodrift automl``: selector × input features × model family × the
+family's hyper-parameters, over every registered model (third-party plugins included).
+
+A candidate is a ``pipeline`` model's parameters (``model``, ``model_params``, ``selector``, ``selector_params``,
+``features``) plus a fidelity (``rung``: epochs of a network, see :func:`at_rung`). A plugin may declare, as class
+attributes, ``automl_cost`` ("cheap", "medium", "expensive"; "skip" leaves it out), ``automl_space`` (a
+search space in :mod:`thermodrift.core.search_space` form replacing its ``search_space()`` here) and
+``automl_features`` (whether a feature stage may feed it; never for models reading raw channels by role); the defaults
+below come from the registry: a model trained by :mod:`thermodrift.core.training` (a network) is expensive,
+every other one cheap. Models that read the measured target (``uses_target_history``: persistence) are
+references, never candidates.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import optuna
+
+from thermodrift.core import registry, search_space
+from thermodrift.core.training import TorchThermalModel
+
+COSTS = ("cheap", "medium", "expensive")
+# Registry defaults for the built-in components (a plugin states its own with ``automl_cost``).
+MODEL_COSTS = {"lptn": "medium", "lptn_hybrid": "medium", "mnr": "cheap", "pso_bpnn": "skip",
+               "pipeline": "skip", "ensemble": "skip"}
+# Families that take no feature stage by default (a plugin states its own with ``automl_features``): MNR expands
+# its inputs into polynomial terms, which many filtered columns make slow and ill-conditioned.
+NO_FEATURES = {"mnr"}
+# Selectors: every registered one takes part unless it is slow (it trains networks or runs a swarm per fit) or
+# random; a plugin selector may set ``automl_cost = "skip"``.
+SELECTOR_COSTS = {"fuzzy_sensitivity": "skip", "hdbscan_pso": "skip", "random_k": "skip"}
+# Feature stage: filter time constants (s) from tau_min_s to tau_max_s, geometric, and drive heat powers.
+FEATURE_SPACE = {"tau_min_s": {"type": "float", "low": 120.0, "high": 3600.0, "log": True},
+                 "tau_max_s": {"type": "float", "low": 3600.0, "high": 43200.0, "log": True},
+                 "n_taus": {"type": "int", "low": 1, "high": 5},
+                 "max_power": {"type": "int", "low": 1, "high": 3}}
+DEFAULT_FEATURES = {"taus_s": [600.0, 2400.0, 9600.0], "powers": [1.0, 2.0]}
+# Settings of a family on features in the portfolio (many collinear filtered columns need a ridge penalty).
+FEATURE_PARAMS = {"mlr": {"alpha": 1.0}}
+RUNG_EPOCH_FACTOR = 3  # successive halving: each rung trains a network 3× longer and keeps a third
+
+
+@dataclass(frozen=True)
+class Family:
+    """A model family taking part: its registry name, cost class, search space, and whether a feature stage
+    may feed it (not for models that read raw channels by role, such as the physics families)."""
+
+    name: str
+    cost: str
+    space: dict
+    takes_features: bool
+    network: bool
+
+
+@dataclass
+class Candidate:
+    """One pipeline to try: ``params`` of the ``pipeline`` model, its fidelity ``rung`` and where it came from."""
+
+    params: dict
+    rung: int = 0
+    origin: str = "tpe"
+    label: str = ""
+
+    @property
+    def family(self) -> str:
+        return self.params["model"]
+
+    def to_json(self) -> str:
+        return json.dumps({"params": self.params, "rung": self.rung, "origin": self.origin, "label": self.label},
+                          default=str)
+
+    @classmethod
+    def from_json(cls, text: str) -> "Candidate":
+        d = json.loads(text)
+        return cls(d["params"], d.get("rung", 0), d.get("origin", "tpe"), d.get("label", ""))
+
+
+def families(reg: registry.Registry | None = None, only: list[str] | None = None) -> list[Family]:
+    """Every registered model that takes part (or those named in ``only``), in name order."""
+    reg = reg or registry.default()
+    for name in only or []:
+        reg.get("model", name)  # an unknown name: one line with the known ones
+    out = []
+    for name in reg.names("model"):
+        cls = reg.get("model", name).factory
+        if getattr(cls, "uses_target_history", False):
+            continue  # a reference (it reads the measured target), never a candidate
+        cost = getattr(cls, "automl_cost", None) or MODEL_COSTS.get(name)
+        network = isinstance(cls, type) and issubclass(cls, TorchThermalModel)
+        cost = cost or ("expensive" if network else "cheap")
+        if only is not None:
+            if name not in only:
+                continue
+            cost = "cheap" if cost == "skip" else cost
+        if cost == "skip":
+            continue
+        space = getattr(cls, "automl_space", None)
+        space = dict(cls.search_space() if space is None else space)
+        search_space.distributions(space)
+        roles = getattr(cls, "extra_input_roles", ())
+        takes = getattr(cls, "automl_features", name not in NO_FEATURES) and "speed" not in roles \
+            and "cutting_power" not in roles
+        out.append(Family(name, cost if cost in COSTS else "cheap", space, takes, network))
+    return out
+
+
+def selectors(reg: registry.Registry | None = None) -> dict[str, dict]:
+    """Selectors that take part with their search spaces (``all`` keeps every temperature channel)."""
+    reg = reg or registry.default()
+    out = {}
+    for name in reg.names("selector"):
+        cls = reg.get("selector", name).factory
+        if (getattr(cls, "automl_cost", None) or SELECTOR_COSTS.get(name)) == "skip":
+            continue
+        space = getattr(cls, "automl_space", None)
+        out[name] = dict(cls.search_space() if space is None else space) if name != "all" else {}
+    return out
+
+
+def features_from(params: dict) -> dict:
+    """Feature-stage parameters from the sampled ``tau_min_s``, ``tau_max_s``, ``n_taus``, ``max_power``."""
+    n = int(params["n_taus"])
+    taus = np.geomspace(params["tau_min_s"], max(params["tau_min_s"], params["tau_max_s"]), n)
+    return {"taus_s": [round(float(t), 1) for t in taus],
+            "powers": [float(p) for p in range(1, int(params["max_power"]) + 1)]}
+
+
+def suggest(trial: optuna.Trial, fams: list[Family], sels: dict[str, dict]) -> Candidate:
+    """A candidate drawn by ``trial`` from the conditional space (names ``<family>.<param>``, ``selector``,
+    ``<selector>.<param>``, ``features``, ``features.<param>``)."""
+    family = {f.name: f for f in fams}[trial.suggest_categorical("family", [f.name for f in fams])]
+    model_params = {k.split(".", 1)[1]: v for k, v in search_space.suggest(
+        trial, {f"{family.name}.{k}": v for k, v in family.space.items()}).items()}
+    selector = trial.suggest_categorical("selector", sorted(sels))
+    selector_params = {k.split(".", 1)[1]: v for k, v in search_space.suggest(
+        trial, {f"{selector}.{k}": v for k, v in sels[selector].items()}).items()}
+    features = None
+    if family.takes_features and trial.suggest_categorical("features", ["raw", "filtered"]) == "filtered":
+        features = features_from({k.split(".", 1)[1]: v for k, v in search_space.suggest(
+            trial, {f"features.{k}": v for k, v in FEATURE_SPACE.items()}).items()})
+    return Candidate(
+        {"model": family.name, "model_params": _nested(model_params), "selector": selector,
+         "selector_params": selector_params, "features": features})
+
+
+def portfolio(fams: list[Family], sels: dict[str, dict]) -> list[Candidate]:
+    """Known-good configurations first, cheapest first: every family untuned on all sensors; every family that
+    takes features (networks aside), on the default filtered features; the cheap read-outs on filtered
+    features of the correlation-selected sensors. Networks enter at the lowest fidelity (rung 0)."""
+    order = {c: i for i, c in enumerate(COSTS)}
+    ranked = sorted(fams, key=lambda f: (order[f.cost], f.name))
+    out = []
+    for f in ranked:
+        out.append(Candidate(_base(f.name), origin="portfolio", label="untuned, all sensors"))
+        if f.takes_features and not f.network:  # networks get features through TPE, if they make its short list
+            out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
+                                  "features": dict(DEFAULT_FEATURES)}, origin="portfolio",
+                                 label="filtered features"))
+    if "correlation_top_k" in sels:
+        for f in ranked:
+            if f.takes_features and f.cost == "cheap":
+                out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
+                                      "selector": "correlation_top_k",
+                                      "selector_params": {"k": 6}, "features": dict(DEFAULT_FEATURES)},
+                                     origin="portfolio", label="untuned, 6 sensors, filtered features"))
+    return out
+
+
+def at_rung(candidate: Candidate, rung: int, family: Family, top_rung: int) -> dict:
+    """The pipeline parameters of ``candidate`` trained at ``rung``: a network's epochs are its default divided
+    by ``RUNG_EPOCH_FACTOR`` once per rung below ``top_rung`` (at least 4); other families are unchanged."""
+    params = json.loads(json.dumps(candidate.params))
+    if not family.network:
+        return params
+    cls = registry.get("model", family.name).factory
+    defaults = getattr(cls, "trainer_defaults", None)
+    epochs = int(getattr(defaults, "epochs", 100) or 100)
+    scaled = max(4, epochs // RUNG_EPOCH_FACTOR ** max(0, top_rung - rung))
+    trainer = dict(params["model_params"].get("trainer") or {})
+    trainer["epochs"] = min(int(trainer.get("epochs", epochs)), scaled)
+    if "t0" in trainer or hasattr(defaults, "t0"):
+        trainer["t0"] = max(1, min(int(trainer.get("t0", getattr(defaults, "t0", 1) or 1)), trainer["epochs"]))
+    params["model_params"] = {**params["model_params"], "trainer": trainer}
+    return params
+
+
+def describe(params: dict) -> str:
+    """A short label: ``mlr · correlation_top_k(k=6) · filtered(600,2400 s; p≤2)``."""
+    sel = params.get("selector", "all")
+    sp = params.get("selector_params") or {}
+    sel = f"{sel}({', '.join(f'{k}={_fmt(v)}' for k, v in sp.items())})" if sp else sel
+    feats = params.get("features")
+    feat = "raw" if not feats else \
+        f"filtered({','.join(f'{t:g}' for t in feats['taus_s'])} s; p≤{max(feats['powers']):g})"
+    mp = {k: v for k, v in (params.get("model_params") or {}).items() if k != "trainer"}
+    model = f"{params['model']}({', '.join(f'{k}={_fmt(v)}' for k, v in mp.items())})" if mp else params["model"]
+    return f"{model} · {sel} · {feat}"
+
+
+def _fmt(v: Any) -> str:
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def _base(name: str) -> dict:
+    return {"model": name, "model_params": {}, "selector": "all", "selector_params": {}, "features": None}
+
+
+def _nested(params: dict[str, Any]) -> dict[str, Any]:
+    """``trainer__lr_max`` folded into a ``trainer`` dict, as the study does for the best parameters."""
+    out: dict[str, Any] = {}
+    for key, value in params.items():
+        if "__" in key:
+            outer, inner = key.split("__", 1)
+            out.setdefault(outer, {})[inner] = value
+        else:
+            out[key] = value
+    return out

@@ -1,0 +1,175 @@
+"""``thermodrift automl [overrides]``: ``thermodrift run automl=default [overrides]``, the search across families.
+
+The same Hydra config groups, overrides, checks and did-you-mean answers as ``run`` (dataset, split, targets,
+seed, tracking, optuna.storage, progress); the model, selector and optimizer groups are not used: the search
+chooses. Settings are ``automl.<key>=<value>`` (``conf/automl/default.yaml``). In MLflow: one run tagged
+``kind=automl`` (held-out metrics as ``run`` logs them, ``leaderboard.csv`` and ``leaderboard.md`` at the artifact
+root, the chosen pipeline's parameters, the pipeline as ``model``), with one child run per family tried, tagged
+``kind=automl_candidate``. This module imports nothing heavy until a job runs, so ``--help`` answers fast.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+
+USAGE = """usage: thermodrift automl [KEY=VALUE ...] [GROUP=OPTION ...] [automl.KEY=VALUE ...]
+
+Searches selector (with its settings, or all sensors) x input features (raw, or filtered temperatures and drive
+heat terms) x model family (every registered model, plugins included) x the family's settings. Inner validation
+predicts each later working condition of the training part from the earlier ones; the best pipeline (or a greedy
+ensemble, when it is better there) is refitted on the training part and scored once on the held-out part beside
+persistence and MLR, in MLflow (a run tagged kind=automl with leaderboard.csv). Budget: automl.budget_fits
+(deterministic; default 120) or also automl.timeout_s (s, load-dependent). A re-run with the same storage resumes.
+
+examples:
+  thermodrift automl dataset=fl_thermal split=time_window split.params.train_end_h=24.13 \\
+      split.params.test_start_h=24.13 split.params.test_end_h=32.13 "targets=['ch3(um)']"
+  thermodrift automl experiment=fl_thermal_5000rpm_heldout automl.budget_fits=60
+  thermodrift automl dataset=recording_file dataset.params.table=my.csv dataset.params.manifest=my.yaml
+  thermodrift automl "automl.families=[mlr,transfer_function,lptn_hybrid]" seed=1
+
+automl settings (automl.KEY=VALUE):"""
+
+
+def help_text() -> str:
+    """``thermodrift automl --help``: its usage, its settings, then the groups and keys it shares with ``run``."""
+    from importlib import resources
+
+    from thermodrift.core.cli import run_options
+
+    lines = [USAGE]
+    text = resources.files("thermodrift.conf.automl").joinpath("default.yaml").read_text(encoding="utf-8")
+    for line in text.splitlines():
+        if line and not line.startswith("#"):
+            key, _, rest = line.partition(":")
+            value, _, doc = rest.partition("#")
+            lines.append(f"  {key:<16}{value.strip():<10} {doc.strip()}")
+    shared = run_options.help_text().split("\n\n", 3)[-1]
+    return "\n".join(lines) + "\n\nshared with thermodrift run:\n" + shared
+
+
+def as_run(args: list[str]) -> list[str]:
+    """The ``run`` command line of ``automl args``: ``automl=default`` first unless an automl option is given."""
+    given = any(a.startswith(("automl=", "experiment=automl")) for a in args)
+    return list(args) if given else ["automl=default", *args]
+
+
+def job(cfg, spec, multirun: bool, bad_input) -> float | None:
+    """Run the search of ``cfg.automl`` for ``spec``'s dataset, split and targets, tracked in MLflow."""
+    import mlflow
+    from omegaconf import OmegaConf
+
+    from thermodrift.core import resume, tracking
+    from thermodrift.core.automl import job as automl_job
+    from thermodrift.core.automl.search import Settings
+    from thermodrift.core.cli import error_line
+    from thermodrift.core.errors import InputError, PluginError
+
+    config = OmegaConf.to_container(cfg, resolve=True)
+    try:
+        settings = Settings(**config["automl"])
+    except TypeError as exc:
+        return bad_input(InputError(f"automl: {exc}"), multirun)
+    name = spec.study_name or automl_job.study_name(spec, settings)
+    table = (spec.dataset_params or {}).get("table")
+    dataset = Path(str(table)).name if table else spec.dataset
+    tags = {"kind": "automl", "dataset": spec.dataset, "split": spec.split, "ablation": str(config.get("ablation")),
+            "model": "pending", "protocol": "pending", "recording": dataset, resume.STUDY_TAG: name,
+            resume.OWNER_ATTR: resume.owner()}
+    with tracking.start_job_run(f"{dataset} · automl · {spec.split}", tags) as run:
+        try:
+            result = automl_job.run(spec, settings, say=error_line)
+        except (InputError, PluginError) as exc:
+            mlflow.set_tag("error", str(exc)[:5000])
+            mlflow.end_run(status="FAILED")
+            return bad_input(exc, multirun)
+        log(result, config)
+    print(report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI), flush=True)
+    return result.job.valid_rmse
+
+
+def log(result, config: dict) -> None:
+    """Log an :class:`~thermodrift.core.automl.job.AutoMLResult` into the active run (the parent) and one child run
+    per family tried."""
+    import mlflow
+
+    from thermodrift.core import tracking
+    from thermodrift.core.automl import leaderboard, space
+
+    job = result.job
+    chosen = {"name": job.spec.model, "params": job.spec.model_params}
+    params = {k: v for k, v in config.items() if k not in ("model", "selector", "optimizer", "search_space",
+                                                            "n_trials")}
+    tracking.log_result(job, {**params, "model": chosen})  # with the model: limits.json, as `run` logs it
+    best = result.search.best
+    mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol,
+                     "automl.chosen": _describe(result)[:5000], "automl.family": best.candidate.family,
+                     "automl.stopped_by": result.search.stopped_by})
+    failed = int((result.leaderboard["status"] == "failed").sum())
+    mlflow.log_metrics({"automl/fits": float(result.search.fits), "automl/candidates": float(len(result.leaderboard)),
+                        "automl/failed": float(failed), "automl/wall_s": float(result.wall_s),
+                        "automl/inner_score": float(job.valid_rmse)})
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "leaderboard.csv"
+        result.leaderboard.to_csv(csv, index=False)
+        (Path(tmp) / "leaderboard.md").write_text(leaderboard.markdown(result.leaderboard, top=None) + "\n",
+                                                  encoding="utf-8")
+        mlflow.log_artifact(str(csv))
+        mlflow.log_artifact(str(Path(tmp) / "leaderboard.md"))
+        (Path(tmp) / "chosen.json").write_text(json.dumps(chosen, indent=2, default=str), encoding="utf-8")
+        mlflow.log_artifact(str(Path(tmp) / "chosen.json"))
+    parent = mlflow.active_run().info.run_id
+    board = result.leaderboard[result.leaderboard["model"] != "ensemble"]
+    for family, rows in board.groupby("model", sort=True):
+        ok = rows[rows["status"] == "ok"]
+        with mlflow.start_run(run_name=f"automl candidate · {family}", nested=True,
+                              tags={"kind": "automl_candidate", "model": str(family), "mlflow.parentRunId": parent,
+                                    "dataset": job.spec.dataset, "split": job.spec.split}):
+            metrics = {"automl/candidates": float(len(rows)), "automl/failed": float(len(rows) - len(ok))}
+            if len(ok):
+                top = ok.iloc[0]
+                metrics["inner/score"] = float(top["inner_score"])
+                metrics.update({tracking.metric_key("inner", c): float(top[c]) for c in ok.columns
+                                if c.startswith(("fold", "rmse ")) and top[c] == top[c]})
+                mlflow.log_param("best_params", str(top["params"])[:500])
+                mlflow.log_param("best_label", space.describe(json.loads(top["params"]))[:500])
+            else:
+                mlflow.set_tag("error", str(rows.iloc[0]["error"])[:5000])
+            mlflow.log_metrics(metrics)
+
+
+def _describe(result) -> str:
+    from thermodrift.core.automl import space
+
+    ens = result.search.ensemble
+    if ens is None:
+        return space.describe(result.search.best.candidate.params)
+    return " + ".join(f"{w:.2f} × [{space.describe(m)}]" for w, m in zip(ens["weights"], ens["members"]))
+
+
+def report(result, run, uri: str) -> str:
+    """What a person reads after the search: the leaderboard's top, the choice, held-out metrics beside the
+    baselines, the parent run."""
+    from thermodrift.core import tracking
+
+    job = result.job
+    board = result.leaderboard
+    show = board[["rank", "model", "selector", "features", "status", "inner_score"]
+                 + [c for c in board.columns if c.startswith("fold")]].head(10)
+    table = tracking.comparison(job)[["rmse", "mae", "max_abs_error", "r2"]]
+    for target in job.targets:
+        table[f"rmse {target}"] = [job.summary_metrics(who, target)["rmse"] for who in job.folds[0].metrics]
+    lines = [f"\nautoml on {job.spec.dataset} · {job.spec.split}  [{job.protocol} protocol]",
+             f"targets (µm): {', '.join(job.targets)}",
+             f"inner folds: {'; '.join(f.name for f in result.search.folds)}",
+             f"{len(board)} candidates, {result.search.fits} fits, {int((board['status'] == 'failed').sum())} "
+             f"failed, stopped by {result.search.stopped_by}, {result.wall_s:.0f} s; leaderboard (inner RMSE µm):",
+             show.to_string(index=False, float_format=lambda v: f"{v:.3f}"),
+             f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} µm): {_describe(result)}",
+             f"held-out ({job.folds[0].name}), µm, mean over targets:",
+             table.to_string(float_format="%.3f"),
+             f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",
+             f"MLflow run {run.info.run_id} at {uri}"]
+    return "\n".join(lines)

@@ -1,0 +1,138 @@
+"""What a training run leaves for ``thermodrift export``, logged beside its ``model`` artifact.
+
+- ``limits.json``: per input the minimum, maximum, largest step per sample and longest constant run on the
+  refit's training rows; per target the same in µm; the sampling interval (s); the targets' axes and positions
+  from the manifest (:func:`thermodrift.compensator.limits.training_limits`).
+- ``fallbacks/``: for families whose refit is cheap (linear and filter read-outs, pipelines around them and
+  ensembles of such pipelines),
+  one model per input fitted on the same training rows without that input, with the refit's parameters, as
+  exported states (a compensator package tree: data only). A controller switches to one when that sensor fails
+  (:mod:`thermodrift.compensator.guard`). Physics and network families get none: their refit costs minutes,
+  and the compensator holds the last good value instead.
+
+The training rows are those of the job's last fold (the refit's), recomputed from the split, which is
+deterministic given the spec and the recording.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from sklearn.base import clone
+
+from thermodrift.compensator import limits as limits_mod
+from thermodrift.compensator import package
+from thermodrift.core import splits
+
+LIMITS = "limits.json"
+FALLBACKS = "fallbacks"
+CHEAP_RUNTIMES = ("linear", "transfer_function")
+FILTER_SETTLE = 5.0  # a filter's state is settled after this many of its longest time constants
+
+
+def training_frame(result) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(inputs, targets) of the refit's training rows: the model's input columns with their roles in
+    ``attrs["roles"]``, and the displacement targets (µm)."""
+    rec, spec, model = result.recording, result.spec, result.model
+    fold = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(rec)[-1]
+    columns = [str(c) for c in model.feature_names_in_]
+    X = rec.data[columns].iloc[fold.train]
+    X.attrs["roles"] = {c: rec.channels[c].role for c in columns if c in rec.channels}
+    return X, rec.data[result.targets].iloc[fold.train]
+
+
+def axes(result) -> dict[str, dict[str, Any]]:
+    """Per target the manifest's ``axis`` and ``position_mm`` (where given)."""
+    rec = result.recording
+    return {t: {k: v for k, v in rec.channels[t].meta.items() if k in ("axis", "position_mm", "location")}
+            for t in result.targets if t in rec.channels}
+
+
+def limits(result) -> dict[str, Any]:
+    """The ``limits.json`` content of a job result (see the module docstring)."""
+    X, y = training_frame(result)
+    return training_limits(X, y, axes(result))
+
+
+def training_limits(X: pd.DataFrame, y: pd.DataFrame, target_axes: dict[str, dict[str, Any]]) -> dict[str, Any]:
+    """``limits.json`` of training inputs ``X`` (indexed by time in s) and targets ``y`` (µm)."""
+    out = limits_mod.training_limits(X.to_numpy(dtype=float), list(X.columns), y.to_numpy(dtype=float),
+                                     list(y.columns), np.asarray(X.index, dtype=float))
+    out["axes"] = target_axes
+    return out
+
+
+def warmup_rows(state: dict[str, Any], sampling_interval_s: float) -> int:
+    """Rows a fresh streamer of ``state`` needs before its output no longer depends on how it started."""
+    if state.get("history_length") is not None:
+        return int(state["history_length"])
+    if state.get("runtime") == "ensemble":
+        return max(warmup_rows(m, sampling_interval_s) for m in state["members"])
+    if state.get("runtime") == "pipeline" and state.get("features") is None:
+        return warmup_rows(state["model"], sampling_interval_s)
+    taus = np.asarray((state.get("features") or {}).get("taus_s", []), dtype=float)
+    longest = float(taus.max()) if len(taus) else 4 * 3600.0
+    return int(math.ceil(FILTER_SETTLE * longest / sampling_interval_s))
+
+
+def _cheap(state: dict[str, Any]) -> bool:
+    if state.get("runtime") == "pipeline":
+        return state["model"].get("runtime") in CHEAP_RUNTIMES
+    if state.get("runtime") == "ensemble":
+        return all(_cheap(m) for m in state["members"])
+    return state.get("runtime") in CHEAP_RUNTIMES
+
+
+def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: float) -> dict[str, dict[str, Any]]:
+    """Sensor -> {"state", "warmup_rows"}: the model refitted without each input, for cheap families only."""
+    try:
+        state = model.export_state()
+    except NotImplementedError:
+        return {}
+    if not _cheap(state) or X.shape[1] < 2:
+        return {}
+    out = {}
+    for column in X.columns:
+        rest = X.drop(columns=[column])
+        rest.attrs = {"roles": {c: r for c, r in X.attrs.get("roles", {}).items() if c != column}}
+        fitted = clone(model).fit(rest, y)
+        fb = fitted.export_state()
+        out[str(column)] = {"state": fb, "warmup_rows": warmup_rows(fb, sampling_interval_s)}
+    return out
+
+
+def log(result) -> None:
+    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``).
+    A model that reads more than recorded channels (the persistence reference reads the previous measured
+    displacement) gets neither: no controller can feed it."""
+    import mlflow
+
+    missing = [str(c) for c in result.model.feature_names_in_ if c not in result.recording.data.columns]
+    if missing:
+        mlflow.set_tag("compensator", f"not exportable: inputs {', '.join(missing)[:200]} are not recorded channels")
+        return
+    X, y = training_frame(result)
+    log_training(result.model, X, y, axes(result))
+
+
+def log_training(model, X: pd.DataFrame, y: pd.DataFrame, target_axes: dict[str, dict[str, Any]]) -> None:
+    """Log ``limits.json`` and ``fallbacks/`` for ``model`` refitted on ``X`` (inputs, time index in s, roles in
+    ``attrs["roles"]``) and ``y`` (µm) into the active MLflow run; ``thermodrift automl`` calls it for its
+    chosen pipeline."""
+    import mlflow
+
+    lim = training_limits(X, y, target_axes)
+    fb = fallbacks(model, X, y, lim["sampling_interval_s"])
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / LIMITS
+        path.write_text(json.dumps(lim, indent=1), encoding="utf-8")
+        mlflow.log_artifact(str(path))
+        if fb:
+            package.write({"fallbacks": fb}, Path(tmp) / FALLBACKS)
+            mlflow.log_artifacts(str(Path(tmp) / FALLBACKS), artifact_path=FALLBACKS)

@@ -1,0 +1,221 @@
+"""``thermodrift automl``: determinism, leak-free inner folds, plugins in the leaderboard, failures recorded, bad
+input, the pipeline and ensemble models (streaming, storing), and the verb end to end in MLflow."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import mlflow
+import numpy as np
+import pandas as pd
+import pytest
+
+from thermodrift.core import artifacts, efficiency, registry, splits
+from thermodrift.core.automl import folds as inner, job, leaderboard, space
+from thermodrift.core.automl.evaluate import Evaluator
+from thermodrift.core.automl.search import Settings
+from thermodrift.core.components import ThermalModel
+from thermodrift.core.study import JobSpec, model_inputs
+from thermodrift.testing.data import tiny_recording
+
+EXE = [sys.executable, "-m", "thermodrift.core.cli"]
+FEATURES = {"taus_s": [600.0, 3000.0], "powers": [1.0, 2.0]}
+
+
+def _spec(**kw) -> JobSpec:
+    return JobSpec(dataset="recording_file", model="mlr", storage=None, progress=False, seed=0, **kw)
+
+
+def _run(families, budget=10, **kw):
+    return job.run(_spec(), Settings(budget_fits=budget, families=families, max_folds=2, **kw),
+                   recording=tiny_recording())
+
+
+def test_same_seed_and_budget_give_the_same_leaderboard():
+    boards = [_run(["mlr", "ridge_demo", "transfer_function"], budget=14).leaderboard for _ in range(2)]
+    keep = [c for c in boards[0].columns if c not in leaderboard.TIMING]
+    pd.testing.assert_frame_equal(boards[0][keep], boards[1][keep])
+    assert len(boards[0]) >= 5 and (boards[0]["status"] == "ok").all()
+    assert {"fold1_rmse", "inner_score", "fit_s", "latency_batch_ms", "latency_stream_ms", "n_parameters"} \
+        <= set(boards[0].columns)
+
+
+def test_every_registered_model_takes_part_and_a_plugin_appears_in_the_leaderboard():
+    names = {f.name for f in space.families()}
+    assert {"ridge_demo", "mlr", "lptn_hybrid", "transfer_function", "lstm"} <= names
+    assert "persistence" not in names and "pipeline" not in names  # a reference; the search's own output
+    board = _run(["ridge_demo", "mlr"], budget=10).leaderboard
+    assert "ridge_demo" in set(board["model"])
+
+
+def test_inner_folds_chain_forward_inside_the_training_part():
+    rec = tiny_recording()
+    for split in (splits.ConditionHoldout(), splits.ConditionHoldout(test_conditions=["4000"], train_on="others")):
+        (outer,) = split.folds(rec)
+        folds = inner.inner_folds(rec, outer.train)
+        assert len(folds) >= 2
+        for f in folds:
+            assert set(f.train) <= set(outer.train) and set(f.test) <= set(outer.train)
+            assert f.train.max() < f.test.min()  # nothing of a fold's future informs it
+            assert not set(outer.test) & (set(f.train) | set(f.test))
+
+
+def test_held_out_rows_cannot_change_the_search():
+    """Scores on the inner folds stay the same when the outer held-out rows (inputs and targets) are replaced."""
+    rec = tiny_recording()
+    (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
+    folds = inner.inner_folds(rec, outer.train)
+    params = {"model": "mlr", "features": FEATURES}
+    first = Evaluator(rec, outer.train, ["disp_z_um", "disp_x_um"], folds).evaluate(params, measure_costs=False)
+    spoiled = tiny_recording()
+    spoiled.data = spoiled.data.copy()
+    cols = [c for c in spoiled.data.columns if c != "speed_rpm"]
+    spoiled.data.iloc[outer.test, [spoiled.data.columns.get_loc(c) for c in cols]] = 1e6
+    second = Evaluator(spoiled, outer.train, ["disp_z_um", "disp_x_um"], folds).evaluate(params,
+                                                                                          measure_costs=False)
+    assert first.fold_rmse == second.fold_rmse
+
+
+class Broken(ThermalModel):
+    """A family whose every fit fails."""
+
+    def _fit(self, X, y):
+        raise RuntimeError("this family cannot fit")
+
+
+@pytest.fixture()
+def broken_family():
+    reg = registry.default()
+    reg.add("model", "broken_family", Broken)
+    yield
+    del reg.components["model"]["broken_family"]
+
+
+def test_a_failing_family_is_one_line_and_a_failed_row_and_the_search_goes_on(broken_family):
+    said = []
+    result = job.run(_spec(), Settings(budget_fits=10, families=["broken_family", "mlr"], max_folds=2),
+                     say=said.append, recording=tiny_recording())
+    board = result.leaderboard
+    failed = board[board["status"] == "failed"]
+    assert list(failed["model"]) == ["broken_family"] and "cannot fit" in failed["error"].iloc[0]
+    assert (board[board["model"] == "mlr"]["status"] == "ok").sum() >= 3
+    assert len([s for s in said if "broken_family" in s]) == 1
+    assert result.job.model is not None and result.job.spec.model in ("pipeline", "ensemble")
+
+
+def test_pipeline_streams_exactly_and_round_trips_with_a_plugin_inside(tmp_path):
+    rec = tiny_recording()
+    targets = ["disp_z_um", "disp_x_um"]
+    X = model_inputs(rec, rec.columns("temperature") + rec.columns("ambient"),
+                     registry.get("model", "pipeline").factory, targets)
+    y = rec.data[targets]
+    for params in ({"model": "ridge_demo", "features": FEATURES, "selector": "correlation_top_k",
+                    "selector_params": {"k": 2}},
+                   {"model": "lstm", "model_params": {"hidden_units": 3, "trainer": {"epochs": 3, "t0": 1}},
+                    "features": FEATURES},
+                   {"model": "transfer_function"}):
+        model = registry.create("model", "pipeline", **params).fit(X.iloc[:200], y.iloc[:200])
+        batch = model.predict(X.iloc[200:], history=X.iloc[:200])
+        stream = model.streamer(X.iloc[:200])
+        streamed = np.array([stream.update(X.iloc[i]) for i in range(200, 260)])
+        assert np.abs(streamed - batch[:60]).max() < 1e-6, params["model"]
+        artifacts.save(model, "pipeline", tmp_path / params["model"])
+        back = artifacts.load(tmp_path / params["model"])
+        assert np.allclose(back.predict(X.iloc[200:], history=X.iloc[:200]), batch, atol=1e-9)
+
+
+def test_ensemble_streams_and_exports_its_members():
+    rec = tiny_recording()
+    targets = ["disp_z_um"]
+    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "ensemble").factory, targets)
+    model = registry.create("model", "ensemble", members=[{"model": "ridge_demo"},
+                                                          {"model": "mlr", "features": FEATURES}],
+                            weights=[1, 3]).fit(X.iloc[:200], rec.data[targets].iloc[:200])
+    batch = model.predict(X.iloc[200:], history=X.iloc[:200])
+    stream = model.streamer(X.iloc[:200])
+    streamed = np.array([stream.update(X.iloc[i]) for i in range(200, 250)])
+    assert np.abs(streamed - batch[:50]).max() < 1e-9
+    assert model.weights_.tolist() == [0.25, 0.75] and model.history_length is None
+    assert efficiency.parameter_count(model) == sum(efficiency.parameter_count(m) for m in model.members_) > 0
+
+
+def test_exported_pipeline_and_ensemble_stream_as_the_compensator_runs_them():
+    """``export_state()`` follows the export contract: the compensator's runtimes reproduce ``predict``."""
+    from thermodrift.compensator import runtime
+
+    rec = tiny_recording()
+    targets = ["disp_z_um", "disp_x_um"]
+    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "pipeline").factory, targets)
+    y = rec.data[targets]
+    models = [registry.create("model", "pipeline", model="mlr", features=FEATURES, selector="correlation_top_k",
+                              selector_params={"k": 2}),
+              registry.create("model", "ensemble", members=[{"model": "transfer_function"},
+                                                            {"model": "mlr", "features": FEATURES}], weights=[1, 2])]
+    for model in models:
+        state = model.fit(X.iloc[:200], y.iloc[:200]).export_state()
+        assert state["inputs"] == list(X.columns) and state["targets"] == targets
+        if state["runtime"] == "pipeline":
+            assert len(state["selected"]) == 3 and "speed_rpm" in state["selected"]  # 2 sensors + the drive
+            assert state["model"]["inputs"] == state["features"]["names"]
+        rt = runtime.build(state)
+        stream = rt.streamer(X.iloc[:200].to_numpy(dtype=float), X.index[:200].to_numpy(dtype=float))
+        out = np.array([stream.update(X.iloc[i].to_numpy(dtype=float), float(X.index[i])) for i in range(200, 240)])
+        assert np.abs(out - model.predict(X.iloc[200:240], history=X.iloc[:200])).max() < 1e-9
+
+
+def _cli(cwd, *args, timeout=600):
+    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
+    env.pop("THERMODRIFT_SWEEP_ID", None)
+    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
+
+
+TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
+        "progress=false"]
+
+
+def test_bad_input_is_one_line_and_exit_2(tmp_path):
+    tiny_recording().write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
+    typo = _cli(tmp_path, "automl", *TINY, "automl.budget_fit=3")
+    assert typo.returncode == 2 and "did you mean 'automl.budget_fits'" in typo.stderr
+    unknown = _cli(tmp_path, "automl", *TINY, "automl.families=[no_such_model]")
+    lines = [ln for ln in unknown.stderr.splitlines() if ln.strip()]
+    assert unknown.returncode == 2 and len(lines) == 1 and "no_such_model" in lines[0], unknown.stderr
+    assert "Traceback" not in typo.stderr + unknown.stderr
+    helped = _cli(tmp_path, "automl", "--help")
+    assert helped.returncode == 0 and "budget_fits" in helped.stdout
+
+
+def test_verb_logs_a_parent_run_with_leaderboard_and_family_children(tmp_path):
+    tiny_recording().write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
+    out = _cli(tmp_path, "automl", *TINY, "automl.budget_fits=8", "automl.max_folds=2",
+               "automl.families=[mlr,ridge_demo]")
+    assert out.returncode == 0, out.stderr[-2000:]
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    runs = mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
+    (parent,) = [r for r in runs if r.data.tags.get("kind") == "automl"]
+    children = [r for r in runs if r.data.tags.get("kind") == "automl_candidate"]
+    assert {c.data.tags["model"] for c in children} == {"mlr", "ridge_demo"}
+    assert all(c.data.tags["mlflow.parentRunId"] == parent.info.run_id for c in children)
+    assert {"test/rmse", "baseline/persistence/test/rmse", "baseline/mlr/test/rmse"} <= set(parent.data.metrics)
+    client = mlflow.MlflowClient()
+    names = {a.path for a in client.list_artifacts(parent.info.run_id)}
+    assert {"leaderboard.csv", "leaderboard.md", "limits.json"} <= names
+    board = pd.read_csv(client.download_artifacts(parent.info.run_id, "leaderboard.csv", str(tmp_path)))
+    assert set(board["model"]) <= {"mlr", "ridge_demo", "ensemble"}
+    assert out.stdout.strip().splitlines()[-1].startswith(f"MLflow run {parent.info.run_id} at ")
+    model = mlflow.pyfunc.load_model(f"runs:/{parent.info.run_id}/model")
+    assert model is not None
+
+
+def test_a_rerun_resumes_from_the_storage_and_only_runs_the_missing_budget(tmp_path):
+    spec = JobSpec(dataset="recording_file", model="mlr", storage=f"sqlite:///{tmp_path / 'o.db'}", progress=False)
+    said = []
+    first = job.run(spec, Settings(budget_fits=6, families=["mlr", "ridge_demo"], max_folds=2),
+                    recording=tiny_recording())
+    second = job.run(spec, Settings(budget_fits=10, families=["mlr", "ridge_demo"], max_folds=2),
+                     say=said.append, recording=tiny_recording())
+    assert first.search.fits == 6 and second.search.fits == 10 and any("resumed" in s for s in said)
+    assert [e.number for e in second.search.entries][:3] == [e.number for e in first.search.entries]
+    assert [e.score for e in second.search.entries][:3] == [e.score for e in first.search.entries]
