@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from omegaconf import OmegaConf
 
+from thermodrift.core import configs
 from thermodrift.core.errors import InputError
 from thermodrift.core.registry import Registry
 from thermodrift.plugins.datasets import fl_thermal as plugin
@@ -105,7 +106,9 @@ def test_default_path_is_relative_to_the_working_directory(rec, monkeypatch):
 
 
 def test_config_names_the_plugin():
-    conf = OmegaConf.load(REPO / "conf" / "dataset" / "fl_thermal.yaml")
+    registry = Registry()
+    plugin.thermodrift_register_datasets(registry)
+    conf = OmegaConf.create(configs.node(registry.get("dataset", "fl_thermal")))  # generated from the class
     assert conf.name == "fl_thermal" and conf.params.path is None
 
 
