@@ -176,19 +176,37 @@ def independent_cases(args):
     return independent.case_list(args.sealed, per, nulls)
 
 
-def fl_cases(data: Path, seed: int) -> list[dict]:
+def fl_cases(data: Path, seed: int, done: dict | None = None, results: Path | None = None,
+             part: str | None = None) -> list[dict]:
     """Semi-synthetic FL_THERMAL (:mod:`independent.fl_semi`): the plain recording, then three planted effects
     of 2–4 µm (centrifugal steps at the real speed changes; the response to an added hall-air channel declared
-    ``ambient``; the response to an added chiller-inlet channel declared ``coolant_inlet``), each against its
+    ``ambient``; the response to an added chiller-inlet channel declared ``coolant_inlet``), each with its
     control (the same added channel without the response; for the centrifugal steps the plain recording). A
-    planted effect counts as named when ``diagnose`` finds it on the planted recording and not on its control."""
+    planted effect counts as named when ``diagnose`` finds it on the planted recording and not on its control
+    (:func:`report_fl`). ``done``/``results`` resume like the synthetic cases; ``part`` "K/N" runs every N-th."""
     from independent import fl_semi
     from thermodrift.core.recording import Channel, Recording, load_recording
 
     manifest = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
     rec = load_recording(data / "data.xlsx", manifest)
-
-    def run(label: str, added: dict, drift: dict) -> dict:
+    done = done or {}
+    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
+    specs = [("fl_thermal (plain)", {}, {}, None, None)]
+    for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
+        control = "fl_thermal (plain)"
+        if case.added:
+            control = f"fl_thermal + {', '.join(case.added)} (control)"
+            specs.append((control, case.added, {}, None, None))
+        specs.append((f"fl_thermal + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift,
+                      case.mechanism, control))
+    if part:
+        k, n = (int(v) for v in part.split("/"))
+        specs = specs[k - 1::n]
+    rows = []
+    for label, added, drift, mechanism, control in specs:
+        if label in done:
+            rows.append(done[label])
+            continue
         frame, channels = rec.data.copy(), dict(rec.channels)
         for col, (role, unit, values) in added.items():
             frame[col] = values
@@ -196,21 +214,14 @@ def fl_cases(data: Path, seed: int) -> list[dict]:
         for col, values in drift.items():
             frame[col] = frame[col] + values
         start = time.perf_counter()
-        d = diagnose(Recording(frame, channels, rec.source + label), None, seed=seed)
-        row = {"case": "fl_thermal" + label, "found": [f["mechanism"] for f in d.findings],
-               "seconds": time.perf_counter() - start}
-        print(f"{row['case']:<60} {', '.join(row['found']) or 'none':<40} {row['seconds']:6.1f} s", file=sys.stderr,
+        d = diagnose(Recording(frame, channels, rec.source + label[len("fl_thermal"):]), None, seed=seed)
+        row = {"case": label, "found": [f["mechanism"] for f in d.findings], "seconds": time.perf_counter() - start,
+               "planted": mechanism, "control": control, "samples": len(rec)}
+        print(f"{label:<60} {', '.join(row['found']) or 'none':<40} {row['seconds']:6.1f} s", file=sys.stderr,
               flush=True)
-        return row
-
-    rows = [run(" (plain)", {}, {})]
-    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
-    for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
-        control = rows[0] if not case.added else run(f" + {', '.join(case.added)} (control)", case.added, {})
-        if case.added:
-            rows.append(control)
-        row = run(f" + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift)
-        row["ok"] = case.mechanism in row["found"] and case.mechanism not in control["found"]
+        if results:
+            with results.open("a", encoding="utf-8") as fh:
+                fh.write(json.dumps(row) + "\n")
         rows.append(row)
     return rows
 
@@ -288,10 +299,21 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
 
 
 def report_fl(fl: list[dict]) -> str:
-    out = ["## Semi-synthetic FL_THERMAL", "", "| case | findings | added effect found | s |", "|---|---|---|---:|"]
-    out += [f"| {r['case']} | {', '.join(r['found']) or 'none'} | {r.get('ok', '')} | {r['seconds']:.0f} |" for r in fl]
-    planted = [r for r in fl if "ok" in r]
-    out += ["", f"Planted effects named: {sum(r['ok'] for r in planted)} of {len(planted)} (target ≥ 2 of 3)."]
+    """The semi-synthetic FL_THERMAL table; a planted effect is named when found and not found on its control."""
+    by = {r["case"]: r for r in fl}
+    out = ["## Semi-synthetic FL_THERMAL", "", "| case | findings | planted effect named | s |", "|---|---|---|---:|"]
+    named = []
+    for r in fl:
+        ok = ""
+        if r.get("planted"):
+            control = by.get(r["control"])
+            if control is None:
+                ok = "control not run"
+            else:
+                ok = str(r["planted"] in r["found"] and r["planted"] not in control["found"])
+                named.append(ok == "True")
+        out.append(f"| {r['case']} | {', '.join(r['found']) or 'none'} | {ok} | {r['seconds']:.0f} |")
+    out += ["", f"Planted effects named: {sum(named)} of {len(named)} with their control run (target ≥ 2 of 3)."]
     return "\n".join(out)
 
 
@@ -311,17 +333,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sealed", action="store_true", help="with --generator fd: the sealed half (seeds ≥ 1000)")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
-    ap.add_argument("--timing", action="store_true", help="with --generator fd: add two 30 h recordings at 15 s")
+    ap.add_argument("--timing", action="store_true", help="with --generator fd|lumped: only the two 30 h recordings "
+                    "at 15 s (run time at the target's sampling; --full includes them)")
+    ap.add_argument("--fl-part", metavar="K/N",
+                    help="with --fl: run only every N-th FL_THERMAL diagnosis from the K-th")
     ap.add_argument("--part", metavar="K/N", help="with --generator fd|lumped: run only every N-th case from the K-th "
                     "(1-based), for N processes side by side (each with its own --results; --pool joins them)")
     ap.add_argument("--pool", nargs="+", type=Path, metavar="ROWS",
                     help="run nothing: one report over the finished cases of these --results files (generators pooled)")
     args = ap.parse_args(argv)
     if args.pool:
-        rows = [json.loads(line) for f in args.pool for line in f.read_text(encoding="utf-8").splitlines() if line]
+        rows = list({r["case"]: r for r in (json.loads(line) for f in args.pool
+                                              for line in f.read_text(encoding="utf-8").splitlines() if line)}.values())
         args.generator = "pooled"
         print(f"# diagnose benchmark, pooled over {', '.join(str(f) for f in args.pool)}\n")
-        print(report(rows, [], args))
+        synthetic, fl = [r for r in rows if "hidden" in r], [r for r in rows if "hidden" not in r]
+        print(report(synthetic, fl, args) if synthetic else report_fl(fl))
         return 0
     if (args.sealed or args.only or args.timing) and args.generator == "library":
         ap.error("--sealed, --only and --timing need --generator fd or lumped")
@@ -356,7 +383,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.fl and not (args.data / "data.xlsx").is_file():
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
         return 2
-    fl = fl_cases(args.data, args.seed) if args.fl else []
+    fl = fl_cases(args.data, args.seed, done, args.results, args.fl_part) if args.fl else []
     print(f"# diagnose benchmark ({'full' if args.full else 'default'}: step {dt:g} s, seed offset {off}, "
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
@@ -372,6 +399,8 @@ def main_independent(args, done: dict, start: float) -> int:
     mixed = sorted([(i / len(hid), 0, c) for i, c in enumerate(hid)]
                    + [((i + 0.5) / len(nul), 1, c) for i, c in enumerate(nul)], key=lambda x: (x[0], x[1]))
     specs = [(s_, h, c, 120.0) for _, _, (s_, h, c) in mixed]
+    if args.timing:
+        specs = []
     if args.full or args.timing:  # run time at the target's sampling: two 30 h recordings at 15 s
         base = independent.SEALED_FROM if args.sealed else 0
         specs += [(base + 900, "coolant_coupling", False, 15.0), (base + 901, "slow_structural_mode", False, 15.0)]
@@ -401,7 +430,7 @@ def main_independent(args, done: dict, start: float) -> int:
     if args.fl and not (args.data / "data.xlsx").is_file():
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
         return 2
-    fl = fl_cases(args.data, args.seed) if args.fl else []
+    fl = fl_cases(args.data, args.seed, done, args.results, args.fl_part) if args.fl else []
     half = "sealed" if args.sealed else "development"
     size = "full" if args.full else "default"
     print(f"# diagnose benchmark, independent generator {args.generator} ({half} half, {size}: step 120 s, "

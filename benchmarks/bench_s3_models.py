@@ -50,11 +50,11 @@ def main(argv: list[str] | None = None) -> int:
     import torch
 
     from thermodrift.core import registry
+    from thermodrift.core.recording import TEMPERATURE_ROLES
 
     torch.set_num_threads(args.threads)
     rec = registry.create("dataset", "motorized_spindle_s3")
-    roles = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
-    X = rec.data[[c for r in roles for c in rec.columns(r)]]
+    X = rec.data[[c for r in TEMPERATURE_ROLES for c in rec.columns(r)]]
     y = rec.data[rec.columns("displacement")]
     cut = int(0.7 * len(X))
     print(f"motorized_spindle_s3: {len(X)} samples x {X.shape[1]} sensors; train {cut}, test {len(X) - cut} "

@@ -30,12 +30,12 @@ def main(argv: list[str] | None = None) -> int:
     import pandas as pd
 
     from thermodrift.core import registry
+    from thermodrift.core.recording import TEMPERATURE_ROLES
     from thermodrift.core.metrics import evaluate
 
     pd.set_option("display.width", 160)
     rec = registry.create("dataset", "motorized_spindle_s3")
-    roles = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
-    X = rec.data[[c for r in roles for c in rec.columns(r)]]
+    X = rec.data[[c for r in TEMPERATURE_ROLES for c in rec.columns(r)]]
     y = rec.data[rec.columns("displacement")]
     cut = int(0.7 * len(X))
     print(f"motorized_spindle_s3: {X.shape[1]} sensors, selection on the first {cut} of {len(X)} samples; "

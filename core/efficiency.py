@@ -17,7 +17,11 @@ STREAM_ROWS = 100  # rows streamed one per call; enough for a stable mean, cheap
 
 
 def parameter_count(model) -> int:
-    """Trainable parameters of a fitted model (see the module docstring)."""
+    """Trainable parameters of a fitted model (see the module docstring); a composite model (a pipeline, an
+    ensemble) counts those of the models its ``fitted_models()`` returns."""
+    parts = getattr(model, "fitted_models", None)
+    if callable(parts):
+        return int(sum(parameter_count(m) for m in parts()))
     report = getattr(model, "train_report_", None)
     if report is not None and getattr(report, "n_parameters", 0):
         return int(report.n_parameters)

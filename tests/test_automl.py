@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from thermodrift.core import artifacts, registry, splits
+from thermodrift.core import artifacts, efficiency, registry, splits
 from thermodrift.core.automl import folds as inner, job, leaderboard, space
 from thermodrift.core.automl.evaluate import Evaluator
 from thermodrift.core.automl.search import Settings
@@ -138,6 +138,7 @@ def test_ensemble_streams_and_exports_its_members():
     streamed = np.array([stream.update(X.iloc[i]) for i in range(200, 250)])
     assert np.abs(streamed - batch[:50]).max() < 1e-9
     assert model.weights_.tolist() == [0.25, 0.75] and model.history_length is None
+    assert efficiency.parameter_count(model) == sum(efficiency.parameter_count(m) for m in model.members_) > 0
 
 
 def test_exported_pipeline_and_ensemble_stream_as_the_compensator_runs_them():

@@ -108,7 +108,7 @@ def test_default_path_is_relative_to_the_working_directory(rec, monkeypatch):
 def test_config_names_the_plugin():
     registry = Registry()
     plugin.thermodrift_register_datasets(registry)
-    conf = OmegaConf.create(configs.node(registry.get("dataset", "fl_thermal")))  # as `dataset=fl_thermal` composes
+    conf = OmegaConf.create(configs.node(registry.get("dataset", "fl_thermal")))  # generated from the class
     assert conf.name == "fl_thermal" and conf.params.path is None
 
 

@@ -135,9 +135,9 @@ def _manifest(path: str, inputs: list[str]):
     """(time column, time scale to s, {input column: (scale, offset)} to the canonical units the model was
     trained in), read with core/recording's manifest reader and unit table (one home for units)."""
     from thermodrift.core.errors import InputError
-    from thermodrift.core.recording import loading as recording  # its manifest reader and unit table
+    from thermodrift.core import recording  # its manifest reader and unit table
 
-    manifest = recording._read_manifest(path, ())
+    manifest = recording.read_manifest(path, ())
     missing = [c for c in inputs if c not in manifest.channels]
     if missing:
         raise InputError("the manifest does not name an input of the package", file=path, column=missing[0],
@@ -148,9 +148,9 @@ def _manifest(path: str, inputs: list[str]):
         if role in ("condition", "ignore"):
             raise InputError(f"the package reads this column as a number, the manifest gives role {role}", file=path,
                              column=c, hint="give it the role and unit it had in training")
-        convert[c] = recording._UNITS[role][1][unit]
+        convert[c] = recording.UNITS[role][1][unit]
     unit = manifest.time_unit or "s"
-    return manifest.time, recording._TIME_UNITS[unit], convert
+    return manifest.time, recording.TIME_UNITS[unit], convert
 
 
 def _probes(path: str, targets: list[str]) -> list[tuple[float, int, float]]:

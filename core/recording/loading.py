@@ -38,7 +38,8 @@ from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDE
 
 # Per role: canonical unit and accepted units as (scale, offset) with canonical = value * scale + offset.
 _TEMPERATURE = ("degC", {"degC": (1.0, 0.0), "°C": (1.0, 0.0), "K": (1.0, -273.15)})
-_UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
+# role -> (canonical unit, {accepted unit: (scale, offset)}); canonical = value * scale + offset
+UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
     **{role: _TEMPERATURE for role in TEMPERATURE_ROLES},
     "displacement": ("um", {"um": (1.0, 0.0), "µm": (1.0, 0.0), "μm": (1.0, 0.0), "mm": (1000.0, 0.0)}),
     "speed": ("rpm", {"rpm": (1.0, 0.0), "rad_s": (60.0 / (2.0 * math.pi), 0.0),
@@ -47,7 +48,7 @@ _UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
     "axis_velocity": ("mm_min", {"mm_min": (1.0, 0.0), "mm/min": (1.0, 0.0),
                                  "m_min": (1000.0, 0.0), "m/min": (1000.0, 0.0)}),
 }
-_TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
 _MANIFEST_KEYS = ("time", "time_unit", "sheet", "channels", "description")
 _TABLE_SUFFIXES = (".csv", ".parquet", ".xlsx")
 # Roles whose zero variance means a dead sensor or nothing to learn (a constant speed is one condition).
@@ -59,7 +60,9 @@ MAX_NAN_RUN = 3  # longest run of missing samples that is interpolated; longer g
 
 
 @dataclass
-class _Manifest:
+class Manifest:
+    """A validated manifest: the time column and its unit (None: timestamps), the sheet, and the channels."""
+
     path: str
     time: str
     time_unit: str | None
@@ -73,7 +76,7 @@ def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLi
 
     ``require`` lists roles that must have at least one channel (default: temperature and displacement).
     """
-    manifest = _read_manifest(manifest_path, tuple(require))
+    manifest = read_manifest(manifest_path, tuple(require))
     table = str(table_path)
     header, body, sheet_note = _read_table(Path(table_path), manifest.sheet)
     notes = [sheet_note] if sheet_note else []
@@ -113,7 +116,7 @@ def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLi
                              hint="check the sensor or mark the column role: ignore in the manifest")
         if role == "displacement":
             _check_displacement_scale(values, unit, table, name, notes)
-        canonical, (scale, offset) = _UNITS[role][0], _UNITS[role][1][unit]
+        canonical, (scale, offset) = UNITS[role][0], UNITS[role][1][unit]
         if (scale, offset) != (1.0, 0.0):
             values = values * scale + offset
             notes.append(f"{name}: converted from {unit} to {canonical}")
@@ -176,7 +179,7 @@ def _construct_unique_mapping(loader: _StrictLoader, node: yaml.MappingNode, dee
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_unique_mapping)
 
 
-def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manifest:
+def read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> Manifest:
     file = str(path)
     if not Path(path).exists():
         raise InputError("manifest file not found", file=file,
@@ -210,9 +213,9 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
         raise InputError("the manifest has no 'time:' key", file=file,
                          hint="add 'time: <name of the time column>'")
     time_unit = doc.get("time_unit")
-    if time_unit is not None and time_unit not in _TIME_UNITS:
+    if time_unit is not None and time_unit not in TIME_UNITS:
         raise InputError(f"unknown time_unit {time_unit!r}", file=file,
-                         hint=f"use one of {', '.join(_TIME_UNITS)} (or leave it out for timestamps)")
+                         hint=f"use one of {', '.join(TIME_UNITS)} (or leave it out for timestamps)")
     sheet = doc.get("sheet")
     channels_doc = doc.get("channels")
     if channels_doc is None:
@@ -241,7 +244,7 @@ def _read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> _Manife
         if not any(r == role for r, _, _ in channels.values()):
             raise InputError(f"no channel has role {role}", file=file,
                              hint=f"give at least one column 'role: {role}' with its unit")
-    return _Manifest(file, time_col, time_unit, None if sheet is None else str(sheet), channels)
+    return Manifest(file, time_col, time_unit, None if sheet is None else str(sheet), channels)
 
 
 def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, dict[str, Any]]:
@@ -262,12 +265,12 @@ def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, d
             raise InputError(f"a condition label has no unit (got {unit!r})", file=file, column=column,
                              hint="remove the unit")
         return role, None, meta
-    accepted = _UNITS[role][1]
+    accepted = UNITS[role][1]
     if unit is None:
         raise InputError(f"{role} channel has no unit", file=file, column=column,
                          hint=f"add unit: one of {', '.join(accepted)}")
     if unit not in accepted:
-        known_elsewhere = any(unit in units for _, units in _UNITS.values())
+        known_elsewhere = any(unit in units for _, units in UNITS.values())
         what = f"unit {unit!r} is not valid for role {role}" if known_elsewhere else f"unknown unit {unit!r}"
         raise InputError(what, file=file, column=column, hint=f"use one of {', '.join(accepted)}")
     return role, str(unit), meta
@@ -439,7 +442,7 @@ def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str) -> np.
         raise InputError(f"'time_unit: {unit}' given but the time column holds {_cell_repr(raw.iloc[0])}",
                          file=file, column=column, row=2, hint="remove time_unit to read timestamps")
     if unit is not None or _is_number(raw.iloc[0]):
-        seconds = _parse_numbers(raw, file, column) * _TIME_UNITS[unit or "s"]
+        seconds = _parse_numbers(raw, file, column) * TIME_UNITS[unit or "s"]
     else:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # pandas warns when it falls back to per-element parsing

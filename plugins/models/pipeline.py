@@ -153,6 +153,10 @@ class Pipeline(ThermalModel):
     def streamer(self, history: pd.DataFrame | None = None) -> "PipelineStreamer":
         return PipelineStreamer(self, history)
 
+    def fitted_models(self) -> list[ThermalModel]:
+        """The fitted inner model (its parameters are the pipeline's; ``core.efficiency`` counts them)."""
+        return [_inner(self)]
+
     # ------------------------------------------------------------------------------------------------ storing
     def __getstate__(self) -> dict[str, Any]:
         state = super().__getstate__()
@@ -253,6 +257,10 @@ class Ensemble(ThermalModel):
 
     def streamer(self, history: pd.DataFrame | None = None) -> "EnsembleStreamer":
         return EnsembleStreamer(self, history)
+
+    def fitted_models(self) -> list[ThermalModel]:
+        """The fitted member pipelines (``core.efficiency`` counts their parameters)."""
+        return list(_members(self))
 
     def __getstate__(self) -> dict[str, Any]:
         state = super().__getstate__()
