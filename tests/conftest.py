@@ -1,8 +1,10 @@
 """Fixtures shared by several test modules."""
 
 import os
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -56,11 +58,24 @@ def postgres_url() -> str:
     pytest.skip("no PostgreSQL server: run `bash .ci/run`, or set THERMODRIFT_TEST_POSTGRES to a SQLAlchemy URL")
 
 
+@pytest.fixture(scope="session")
+def empty_mlflow_db(tmp_path_factory) -> Path:
+    """An MLflow SQLite database with its schema and nothing else, made once per test process: MLflow migrates a
+    new database through its whole schema history, about a second of CPU that every scratch folder would repeat."""
+    import mlflow
+
+    path = tmp_path_factory.mktemp("mlflow_template") / "mlflow.db"
+    mlflow.MlflowClient(f"sqlite:///{path}").search_experiments()  # creates the schema, idle afterwards
+    return path
+
+
 @pytest.fixture()
-def workdir(tmp_path):
+def workdir(tmp_path, empty_mlflow_db):
     """A scratch folder as a user's working folder: the tiny recording (seed 0) as ``tiny.csv`` + ``tiny.yaml``
-    (``dataset=recording_file dataset.params.table=tiny.csv dataset.params.manifest=tiny.yaml`` reads it)."""
+    (``dataset=recording_file dataset.params.table=tiny.csv dataset.params.manifest=tiny.yaml`` reads it) and an
+    empty ``mlflow.db`` (a copy of :func:`empty_mlflow_db`)."""
     from thermodrift.testing.data import tiny_recording
 
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
+    shutil.copy(empty_mlflow_db, tmp_path / "mlflow.db")
     return tmp_path

@@ -2,6 +2,10 @@
 from tiny runs of the S3 presets: the Table 13/15 analogue per protocol with DLTK's RMSE reduction, the efficiency
 table (Table 14), the ablation table and Table 16."""
 
+import re
+import shutil
+from pathlib import Path
+
 import mlflow
 import pandas as pd
 import pytest
@@ -12,20 +16,50 @@ TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.para
         "progress=false"]
 
 
-def test_report_regenerates_tables_from_a_sweep(tmp_path, cli):
-    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    out = cli(tmp_path, "run", "-m", *TINY, "model=mlr,mnr", "split=chronological,shuffled", "n_trials=2",
-              "selector=all")
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory, cli, empty_mlflow_db):
+    """One small grid, run as a user runs it with its output going to a file (a pipe), shared by the tests below:
+    two models by the two paper splits, 2 trials each; (folder, sweep id, the completed process)."""
+    folder = tmp_path_factory.mktemp("grid")
+    tiny_recording(seed=0).write(folder / "tiny.csv", folder / "tiny.yaml")
+    shutil.copy(empty_mlflow_db, folder / "mlflow.db")
+    # an empty matplotlib cache: its font scan logs INFO lines, which must not reach the output
+    out = cli(folder, "run", "-m", *TINY, "model=mlr,mnr", "split=chronological,shuffled", "n_trials=2",
+              "selector=all", "progress=true", env={"MPLCONFIGDIR": str(folder / "mpl")})
     assert out.returncode == 0, out.stderr[-2000:]
-    (sweep,) = [p.name for p in (tmp_path / "multirun").iterdir()]
-    rep = cli(tmp_path, "report", sweep)
+    (sweep,) = [p.name for p in (folder / "multirun").iterdir()]
+    return folder, sweep, out
+
+
+def test_grid_output_in_a_file_is_clean_and_names_its_sweep_and_report(grid):
+    folder, sweep, out = grid
+    text = out.stdout + out.stderr
+    assert "\r" not in text and "fontManager" not in text and "matplotlib" not in text
+    progress = [ln for ln in out.stderr.splitlines() if " trials finished" in ln]
+    assert progress and all(re.fullmatch(r"\S+: \d+ of 2 trials finished, best inner validation RMSE [\d.]+ µm", ln)
+                            for ln in progress)
+    assert all(ln.startswith(("[", "recording_file-")) for ln in out.stderr.splitlines())  # Hydra's or progress
+    assert f"sweep {sweep}: job folders in multirun/{sweep}" in out.stdout
+    (where,) = re.findall(r"logged on the parent run: file://(\S+)", out.stdout)
+    assert (Path(where) / "report.md").is_file() and f"thermodrift report {sweep}" in out.stdout
+    mlflow.set_tracking_uri(f"sqlite:///{folder / 'mlflow.db'}")
+    children = [r for r in mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
+                if "mlflow.parentRunId" in r.data.tags]
+    logs = [p.read_text(encoding="utf-8") for p in sorted((folder / "multirun" / sweep).glob("*/run.log"))]
+    assert len(logs) == len(children) == 4
+    assert sorted(c.info.run_id for c in children) == sorted(re.search(r"MLflow run (\w+) at", t)[1] for t in logs)
+
+
+def test_report_regenerates_tables_from_a_sweep(grid, cli):
+    folder, sweep, _ = grid
+    rep = cli(folder, "report", sweep)
     assert rep.returncode == 0, rep.stderr[-2000:]
     assert "S1 Table 7 analogue" in rep.stdout and "S2 analogue" in rep.stdout
-    table = pd.read_csv(tmp_path / "reports" / sweep / "s1_table7.csv")
+    table = pd.read_csv(folder / "reports" / sweep / "s1_table7.csv")
     assert set(table["protocol"]) == {"paper", "honest"}
     assert {"mlr (tpe)", "mnr (tpe)", "persistence", "mlr"} <= set(table["source"])
     assert len(table) == 2 * 4  # per split: the two tuned models and the two baselines (same in both jobs)
-    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    mlflow.set_tracking_uri(f"sqlite:///{folder / 'mlflow.db'}")
     runs = mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
     parent = next(r for r in runs if r.data.tags.get("kind") == "sweep")
     for run in (r for r in runs if r.data.tags.get("mlflow.parentRunId") == parent.info.run_id):
@@ -33,7 +67,7 @@ def test_report_regenerates_tables_from_a_sweep(tmp_path, cli):
         row = table[table["split"].str.startswith(tags["split"]) & (table["source"] == f"{tags['model']} (tpe)")]
         assert abs(float(row["mean residual µm"].iloc[0]) - run.data.metrics["test/mae"]) < 1e-9
         assert abs(float(row["max residual µm"].iloc[0]) - run.data.metrics["test/max_abs_error"]) < 1e-9
-    s2 = pd.read_csv(tmp_path / "reports" / sweep / "s2_mre.csv")
+    s2 = pd.read_csv(folder / "reports" / sweep / "s2_mre.csv")
     assert (s2["residual variance µm²"] >= -1e-9).all() and s2["mean relative error %"].notna().all()
     logged = {a.path for a in mlflow.MlflowClient().list_artifacts(parent.info.run_id, "report")}
     assert {"report/s1_table7.md", "report/s1_table7.csv", "report/s2_mre.md", "report/s2_mre.csv"} <= logged
@@ -80,9 +114,7 @@ METRICS = ["RMSE µm", "MSE µm²", "MAE µm", "R²", "EV", "VAF %"]
 
 
 def _sweep(cli, folder, *args) -> pd.DataFrame:
-    """Run one grid in ``folder`` and ``thermodrift report`` on it; the report's folder."""
-    folder.mkdir()
-    tiny_recording(seed=0).write(folder / "tiny.csv", folder / "tiny.yaml")
+    """Run one grid in ``folder`` (a ``workdir``) and ``thermodrift report`` on it; the report's folder."""
     out = cli(folder, "run", "-m", *S3_TINY, *args, timeout=900)
     assert out.returncode == 0, out.stderr[-2000:]
     (sweep,) = [p.name for p in (folder / "multirun").iterdir()]
@@ -97,8 +129,8 @@ def _runs(folder):
             if r.data.tags.get("kind") != "sweep"]
 
 
-def test_the_comparison_preset_reports_table13_the_reduction_and_table14(tmp_path, cli):
-    folder = tmp_path / "cmp"
+def test_the_comparison_preset_reports_table13_the_reduction_and_table14(workdir, cli):
+    folder = workdir
     report = _sweep(cli, folder, "experiment=s3_rbmox_dltk", "+s3_arm=dltk,bp,lstm,tcn_lstm",
                     "split=chronological,s3_paper", *NETS)
     table = pd.read_csv(report / "s3_table13.csv")
@@ -132,8 +164,8 @@ def test_the_comparison_preset_reports_table13_the_reduction_and_table14(tmp_pat
     assert not (report / "s3_ablation.csv").exists() and not (report / "s3_table16.csv").exists()
 
 
-def test_the_ablation_preset_reports_five_different_networks(tmp_path, cli):
-    report = _sweep(cli, tmp_path / "abl", "experiment=s3_dltk_ablation", *NETS)
+def test_the_ablation_preset_reports_five_different_networks(workdir, cli):
+    report = _sweep(cli, workdir, "experiment=s3_dltk_ablation", *NETS)
     table = pd.read_csv(report / "s3_ablation.csv")
     assert list(table["ablation"]) == ["full", "no_deform", "no_lstm", "no_transformer", "no_kan"]
     assert list(table.columns) == ["protocol", "split", "ablation", "source", *METRICS, "parameters", "training s"]
@@ -141,8 +173,8 @@ def test_the_ablation_preset_reports_five_different_networks(tmp_path, cli):
     assert not (report / "s3_table13.csv").exists()  # no comparison in an ablation sweep
 
 
-def test_the_selection_preset_reports_table16(tmp_path, cli):
-    report = _sweep(cli, tmp_path / "sel", "experiment=s3_selection")
+def test_the_selection_preset_reports_table16(workdir, cli):
+    report = _sweep(cli, workdir, "experiment=s3_selection")
     table = pd.read_csv(report / "s3_table16.csv")
     assert list(table.columns) == ["protocol", "split", "selector", "optimizer", "best correlation",
                                    "reached at iteration", "sensors"]
@@ -151,5 +183,5 @@ def test_the_selection_preset_reports_table16(tmp_path, cli):
     assert (table["best correlation"] <= 1).all() and table["reached at iteration"].between(1, 2).all()
     assert table["best correlation"].is_monotonic_decreasing
     logged = {r.data.params["selector.params.optimizer"]: r.data.metrics["selector/best_fitness"]
-              for r in _runs(tmp_path / "sel")}
+              for r in _runs(workdir)}
     assert dict(zip(table["optimizer"], table["best correlation"])) == pytest.approx(logged)

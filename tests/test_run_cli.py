@@ -65,25 +65,6 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir, cli):
     assert f"MLflow run {run.info.run_id} at sqlite:///mlflow.db" in log.read_text(encoding="utf-8")
 
 
-def test_grid_output_in_a_file_is_clean_and_names_its_sweep_and_report(workdir, cli):
-    env = {"MPLCONFIGDIR": str(workdir / "mpl")}  # an empty matplotlib cache: its font scan logs INFO lines
-    out = cli(workdir, "run", "-m", "model=mlr,persistence", *TINY, "progress=true", "n_trials=2", env=env)
-    assert out.returncode == 0, out.stderr[-2000:]
-    text = out.stdout + out.stderr
-    assert "\r" not in text and "fontManager" not in text and "matplotlib" not in text
-    progress = [ln for ln in out.stderr.splitlines() if " trials finished" in ln]
-    assert progress and all(re.fullmatch(r"\S+: \d+ of 2 trials finished, best inner validation RMSE [\d.]+ µm", ln)
-                            for ln in progress)
-    assert all(ln.startswith(("[", "recording_file-")) for ln in out.stderr.splitlines())  # Hydra's or progress
-    (sweep,) = [p.name for p in (workdir / "multirun").iterdir()]
-    assert f"sweep {sweep}: job folders in multirun/{sweep}" in out.stdout
-    (where,) = re.findall(r"logged on the parent run: file://(\S+)", out.stdout)
-    assert (Path(where) / "report.md").is_file() and f"thermodrift report {sweep}" in out.stdout
-    children = [r for r in runs(workdir) if "mlflow.parentRunId" in r.data.tags]
-    logs = [(workdir / "multirun" / sweep / str(i) / "run.log").read_text(encoding="utf-8") for i in range(2)]
-    assert sorted(c.info.run_id for c in children) == sorted(re.search(r"MLflow run (\w+) at", t)[1] for t in logs)
-
-
 def test_parallel_grid_makes_one_parent_and_tagged_children(workdir, cli):
     out = cli(workdir, "run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
               "model=mlr,persistence", "split=chronological,condition_holdout", *TINY, "n_trials=2")
