@@ -3,10 +3,12 @@ compensation model, next to the generic streamer (``components.Streamer``: a pre
 update) and the gap between streamed and batch predictions.
 
 Each model is built with its constructor defaults (torch models: the architecture at its default size, trained for
-``--epochs`` epochs only, since latency does not depend on the weights), fitted on the first 70 % of the recording's
-rows, and streamed over the next ``--rows`` rows after the training rows as history. ms per update is the median
-over ``--repeats`` passes (one torch thread), wall and CPU time (a busy machine stretches the wall time, not the
-CPU time); the two streamers run side by side, and the speed-up is the ratio of their CPU times.
+``--epochs`` epochs only, since latency does not depend on the weights; a model whose defaults cannot be fitted,
+such as an ensemble without members, with its first conformance parameter set, marked "test params"), fitted on
+the first 70 % of the recording's rows, and streamed over the next ``--rows`` rows after the training rows as
+history. ms per update is the median over ``--repeats`` passes (one torch thread), wall and CPU time (a busy
+machine stretches the wall time, not the CPU time); the two streamers run side by side, and the speed-up is the
+ratio of their CPU times.
 "max |stream - batch|" is the largest difference (µm) from ``predict(rows, history)`` (the contract: at most
 1e-4 µm).
 
@@ -45,13 +47,18 @@ def measure(name: str, rec, epochs: int, n_rows: int, repeats: int) -> dict:
     from thermodrift.core.study import INPUT_ROLES, model_inputs
 
     factory = registry.get("model", name).factory
-    params = {"trainer__epochs": epochs, "trainer__t0": 1} if registry.accepts(factory, "trainer") else {}
-    model = registry.create("model", name, **params)
     sensors = [c for role in INPUT_ROLES for c in rec.columns(role)]
     targets = rec.columns("displacement")
     X = model_inputs(rec, sensors, factory, targets)
     cut = int(0.7 * len(X))
-    model.fit(X.iloc[:cut], rec.data[targets].iloc[:cut])
+    params = {"trainer__epochs": epochs, "trainer__t0": 1} if registry.accepts(factory, "trainer") else {}
+    try:
+        model = registry.create("model", name, **params).fit(X.iloc[:cut], rec.data[targets].iloc[:cut])
+        sized = "defaults"
+    except ValueError:  # a model that needs parameters (an ensemble needs members): its conformance parameters
+        model = registry.create("model", name, **factory.get_test_params()[0])
+        model.fit(X.iloc[:cut], rec.data[targets].iloc[:cut])
+        sized = "test params"
     history, part = X.iloc[:cut], X.iloc[cut:cut + n_rows]
     rows = [part.iloc[i] for i in range(len(part))]  # Series named by their time (s), as a controller passes them
     own, own_cpu = per_update_ms(lambda: model.streamer(history), rows, repeats)
@@ -59,8 +66,9 @@ def measure(name: str, rec, epochs: int, n_rows: int, repeats: int) -> dict:
     streamer = model.streamer(history)
     streamed = np.array([np.asarray(streamer.update(r), dtype=float).ravel() for r in rows])
     gap = float(np.abs(streamed - model.predict(part, history=history)).max())
-    return {"model": name, "history": model.history_length, "streamer": type(model.streamer(history)).__name__,
-            "own_ms": own, "own_cpu_ms": own_cpu, "generic_ms": generic, "generic_cpu_ms": generic_cpu, "gap_um": gap}
+    return {"model": name, "sized": sized, "history": model.history_length,
+            "streamer": type(model.streamer(history)).__name__, "own_ms": own, "own_cpu_ms": own_cpu,
+            "generic_ms": generic, "generic_cpu_ms": generic_cpu, "gap_um": gap}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,7 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.models or registry.names("model"):
         r = measure(name, rec, args.epochs, args.rows, args.repeats)
         history = "all" if r["history"] is None else str(r["history"])
-        print(f"{name:22s}{history:>8s}  {r['streamer']:25s}{r['own_ms']:10.3f}{r['own_cpu_ms']:8.3f}"
+        label = name if r["sized"] == "defaults" else f"{name} ({r['sized']})"
+        print(f"{label:22s}{history:>8s}  {r['streamer']:25s}{r['own_ms']:10.3f}{r['own_cpu_ms']:8.3f}"
               f"{r['generic_ms']:11.3f}{r['generic_cpu_ms']:8.3f}{r['generic_cpu_ms'] / r['own_cpu_ms']:8.1f}x"
               f"{r['gap_um']:25.2e}", flush=True)
     return 0

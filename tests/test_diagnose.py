@@ -70,14 +70,20 @@ def test_cli_writes_report_json_in_the_issue_shape(cutting_case, tmp_path):
     assert code == 0
     assert any(p.name == "report.json" for p in runs.rglob("report.json"))  # the MLflow run holds the report
     doc = json.loads((out / "report.json").read_text(encoding="utf-8"))
-    assert list(doc) == ["baseline", "findings", "rejected", "augmented", "verdict"]
+    assert list(doc)[:5] == ["baseline", "findings", "rejected", "augmented", "verdict"]  # keys only added after
+    assert doc["adequacy"]["channels"] and set(doc["adequacy"]["channels"]) == set(
+        cutting_case.recording.columns("displacement"))
     disp = cutting_case.recording.columns("displacement")
     for part in ("baseline", "augmented"):
         assert list(doc[part]) == ["rmse_um", "heldout_rmse_um"]
         assert all(sorted(doc[part][k]) == sorted(disp) for k in doc[part])
     for f in doc["findings"]:
-        assert list(f) == ["mechanism", "confidence", "parameters", "ci", "where", "evidence"]
+        assert list(f)[:6] == ["mechanism", "confidence", "parameters", "ci", "where", "evidence"]
         assert 0 <= f["confidence"] <= 1 and isinstance(f["evidence"], str)
+        assert f["test"] and f["statistic"] > 0 and 0 < f["fdr_level"] < 1 and f["p_value"] < f["fdr_level"]
+        assert set(f["ci"]) == set(f["parameters"]) and all(  # truthful: finite and containing the value
+            np.isfinite(f["ci"][k]).all() and f["ci"][k][0] <= v <= f["ci"][k][1] for k, v in f["parameters"].items())
+        assert not set(f["fixed"]) & set(f["parameters"]) and all(k in f["evidence"] for k in f["fixed"])
         assert all(list(w) == ["channel", "start_s", "end_s"] for w in f["where"])
     assert all(list(r) == ["mechanism", "reason"] for r in doc["rejected"])
     assert doc["findings"][0]["mechanism"] == "cutting_heat" and isinstance(doc["verdict"], str)

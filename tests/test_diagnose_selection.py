@@ -43,7 +43,7 @@ def test_bootstrap_confidence_follows_the_same_choice():
     rng = np.random.default_rng(1)
     gain = 1000.0 + rng.normal(0, 5, 8)
     fitted = [_fitted("radiation", gain + 1e-3), _fitted("ambient_coupling", gain)]
-    inclusion = selection.bootstrap_inclusion(fitted, np.full(8, 200.0), 10, 0.01, 0.05, 50, 0)
+    inclusion = selection.bootstrap_inclusion(fitted, 8, 10, 0.01, 50, 0)
     assert inclusion == {"ambient_coupling": 1.0}
 
 

@@ -31,12 +31,11 @@ def test_a_grid_of_paper_jobs_only_has_a_labelled_paper_best():
     assert line.startswith("best paper job by inner validation RMSE (protocol=paper") and line.endswith("p2 (p2)")
 
 
-@pytest.fixture()
-def grid(tmp_path, monkeypatch):
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
     """A sweep's parent run and four finished job runs in a SQLite MLflow store: two honest jobs and one job on each
     of S1's two paper splits, the paper jobs with the lowest validation RMSEs."""
-    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
-    monkeypatch.setenv("MLFLOW_DISABLE_TELEMETRY", "true")
+    uri = f"sqlite:///{tmp_path_factory.mktemp('grid') / 'mlflow.db'}"
     exp = tracking.setup(uri, "grid")
     client = MlflowClient()
     parent = client.create_run(exp, run_name="sweep", tags={"kind": "sweep"}).info.run_id
@@ -58,12 +57,12 @@ def grid(tmp_path, monkeypatch):
             client.log_metric(run.info.run_id, metric, value)
         client.set_terminated(run.info.run_id)
         ids[name] = run.info.run_id
-    monkeypatch.setenv(tracking.PARENT_ENV, parent)
     return uri, client, parent, ids
 
 
-def test_the_parent_carries_the_best_honest_job_and_names_the_best_paper_job(grid, capsys):
+def test_the_parent_carries_the_best_honest_job_and_names_the_best_paper_job(grid, capsys, monkeypatch):
     uri, client, parent, ids = grid
+    monkeypatch.setenv(tracking.PARENT_ENV, parent)
     tracking.SweepRun().on_multirun_end(OmegaConf.create({"tracking": {"uri": uri, "experiment": "grid"}}))
     tags = client.get_run(parent).data.tags
     assert tags["best_run_id"] == ids["honest_lstm"] and tags["best_protocol"] == "honest"

@@ -119,15 +119,16 @@ def _grouped(free: list[FreeParameter], group_of: dict[str, str],
     return out
 
 
-def auto_network(recording, hidden_nodes: int = 2, capacity_J_K: float = AUTO_CAPACITY_J_K,
+def auto_network(recording, hidden_nodes: int | tuple[float, ...] = 2, capacity_J_K: float = AUTO_CAPACITY_J_K,
                  heat_exponent: float = 1.5, grouped: bool = False) -> AutoBaseline:
     """The baseline network of ``recording`` from its manifest alone (see the module docstring).
 
     Start values come from each temperature channel's first warm-up (:func:`step_response_start`); hidden
     nodes start with time constants log-spaced over 0.5–4 h. Node groups are guesses for the mechanism library:
     temperature nodes rising ≥ 50 % of the largest rise are ``bearing``, ≥ 10 % ``housing``, else ``structure``;
-    hidden nodes are ``shaft``. ``grouped``: the conductances of the temperature nodes of one group share one
-    free factor on their step-response starts (``G[bearing]×`` …; a parameterisation the data can identify
+    hidden nodes are ``shaft``. ``hidden_nodes`` may instead give the hidden nodes' start time constants (h), one
+    per node (the missing-physics finder chooses them on held-out data). ``grouped``: the conductances of the
+    temperature nodes of one group share one free factor on their step-response starts (``G[bearing]×`` …; a parameterisation the data can identify
     where one conductance per node is not), hidden nodes keep one conductance each.
     """
     speed = recording.speed
@@ -136,6 +137,9 @@ def auto_network(recording, hidden_nodes: int = 2, capacity_J_K: float = AUTO_CA
                          hint="give the speed column role 'speed' in the manifest, or pass --network spec.yaml")
     temps = recording.temperatures
     disps = recording.displacements
+    hidden_tau_h = None
+    if isinstance(hidden_nodes, (tuple, list)):
+        hidden_tau_h, hidden_nodes = tuple(float(x) for x in hidden_nodes), len(hidden_nodes)
     if temps.shape[1] == 0 and hidden_nodes == 0:
         raise InputError(f"{recording.source}: no temperature channel and no hidden node to build a network from")
     if disps.shape[1] == 0:
@@ -175,8 +179,9 @@ def auto_network(recording, hidden_nodes: int = 2, capacity_J_K: float = AUTO_CA
             "location", ""))))
     if grouped:
         free = _grouped(free, {n.name: n.group for n in nodes}, g_bounds)
-    for k, tau in enumerate(np.geomspace(0.5, 4.0, hidden_nodes) * 3600.0 if hidden_nodes > 1 else
-                            [1.5 * 3600.0] * hidden_nodes):
+    taus = (np.array(hidden_tau_h) if hidden_tau_h is not None else np.geomspace(0.5, 4.0, hidden_nodes)
+            if hidden_nodes > 1 else np.full(hidden_nodes, 1.5))
+    for k, tau in enumerate(taus[:hidden_nodes] * 3600.0):
         add_node(f"hidden_{k + 1}", "shaft", float(tau), 1.0 / float(tau), heat_free=None)
     free.append(FreeParameter("heat_exponent", tuple(f"sources.{s.name}.viscous_exponent" for s in sources),
                               heat_exponent, 0.3, 3.0, "1"))

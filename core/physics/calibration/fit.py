@@ -119,7 +119,7 @@ class CalibrationResult:
 
 def calibrate(recording, network: Network | None = None, *,
               free: Sequence[FreeParameter] | Sequence[str] | None = None, targets: Sequence[str] | None = None,
-              hidden_nodes: int = 2, max_evaluations: int = 100, starts: int = 1, seed: int = 0,
+              hidden_nodes: int | tuple[float, ...] = 2, max_evaluations: int = 100, starts: int = 1, seed: int = 0,
               level: float = 0.95, max_fit_samples: int = MAX_FIT_SAMPLES, intervals: bool = True,
               progress: bool = False, jitter_seed: int | None = None, grouped: bool = False,
               prior_strength: float | None = None) -> CalibrationResult:

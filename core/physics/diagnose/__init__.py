@@ -4,24 +4,32 @@ Pipeline (:func:`diagnose`)::
 
     final block   the last ~20 % of the recording (cut at a condition boundary) is kept out of everything
                   below and only scores the result (``heldout_rmse_um``)
-    baseline      calibrate the network (``auto`` without its prior, or a spec with its parameters fixed and
-                  only the linear offsets and sensitivities solved) on the rest
-    screen        every registered mechanism × place × shape: regress the residual on its re-simulated,
-                  linearised response (:mod:`.screening`); mechanisms whose drivers are missing or constant
-                  are skipped with that reason
+    baseline      calibrate the network (``auto`` without its prior, its hidden nodes chosen first on the inner
+                  validation block, :mod:`.adequacy`; or a spec with its parameters fixed and only the linear
+                  offsets and sensitivities solved) on the rest; say how adequate it is (misfit against noise,
+                  residual correlation, validation against fitted error)
+    noise model   per channel an AR model of the baseline's own residual (:mod:`.noise`): residuals and
+                  responses are whitened with it, so structural misfit the AR model describes counts as noise
+    screen        every registered mechanism × place × shape: regress the whitened residual on its re-simulated,
+                  linearised, whitened response (:mod:`.screening`); mechanisms whose drivers are missing or
+                  constant are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
-    accept        the best fitted one if its likelihood-ratio test passes at α/m (Bonferroni over the m
-                  screened candidates), its fitted parameters lie within their physical bounds, it explains
-                  at least 5 % of the baseline's misfit (a margin for model error the white-noise test does
-                  not see), its condition-blocked cross-validated gain is positive in at least half the
-                  blocks, and, fitted again without the inner validation block (the last ~20 % of the
-                  screening rows, cut at a condition boundary), it predicts that block better than the
-                  baseline refitted alike (balanced gain > 0) and its drift no worse than 10 % or than
-                  3 standard deviations of noise (noise-weighted sum of squares of the displacement
-                  channels); then screen again on the augmented network (forward selection) until nothing passes
+    accept        the best fitted one if its whitened likelihood ratio is a discovery by Benjamini–Hochberg over
+                  the round's screened candidates at the round's level (α/2, α/4, … over rounds: the
+                  false-discovery level stays below α in all), its fitted parameters lie within their physical
+                  bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
+                  and, fitted again without the inner validation block (the last ~20 % of the screening rows,
+                  cut at a condition boundary), it predicts that block better than the baseline refitted alike
+                  by more per sample than the error it leaves varies from block to block (standard error over
+                  the condition blocks: the scale of the structural misfit on this machine, in its own units)
+                  and its drift no worse than 10 % or than 3 standard deviations of noise (noise-weighted sum
+                  of squares of the displacement channels); then screen again on the augmented network (forward
+                  selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
-                  intervals from the re-simulation fit
+                  intervals from the re-simulation fit; a parameter whose interval is not finite, misses its
+                  value or is too wide to identify it is held at its fitted value, left out of the
+                  parameters and named in the evidence (:func:`.selection.identified`)
     equivalence   of the passing candidates within 5 % of the best gain that the data cannot tell apart from
                   it, the most parsimonious is named (:func:`.selection.parsimonious`); a rival mechanism
                   fitting within 5 % of the named one's gain: "not identifiable from this data", with the
@@ -33,6 +41,7 @@ checks read), ``report.md``, figures, the residual series and an optional MLflow
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,7 +51,8 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
-from thermodrift.core.physics.diagnose import screening, selection
+from thermodrift.core.physics.diagnose import adequacy, screening, selection
+from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
 from thermodrift.core.physics.network import Network
@@ -52,7 +62,7 @@ from thermodrift.core.recording import Window
 MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
-MIN_SHARE = 0.05    # an accepted mechanism explains at least this share of the (balanced) misfit
+PLAIN_TOP = 2       # besides the ``top`` by the whitened screening, the best this many by the plain one are fitted
 VAL_DRIFT_SLACK = 0.10  # ... and leaves the inner validation block's drift at most this much worse, or within
 VAL_DRIFT_Z = 3.0       # this many standard deviations of a noise-only sum of squares (χ², 2n variance)
 
@@ -77,6 +87,7 @@ class Diagnosis:
     seconds: float
     speed_rpm: np.ndarray
     trace: list[dict[str, Any]] = field(default_factory=list)  # every fitted candidate, per round
+    adequacy: dict[str, Any] = field(default_factory=dict)     # how adequate the baseline is (:mod:`.adequacy`)
 
     @property
     def displacement_channels(self) -> list[str]:
@@ -141,24 +152,28 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     t = recording.time_s
     fit_rows = t < final_cut(recording)
     fit_rec = recording.select(fit_rows)
+    scenario = Scenario.from_recording(recording)
+    inner_rows = fit_rows & (t < final_cut(fit_rec))
+    inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
+    structure: list[dict[str, Any]] = []
     if network is None:
         # no prior on the auto baseline: the prior pulls its laws (heat ∝ n^p, constant convection) towards their
         # assumed form, which is what the finder tests; its own held-out checks guard against overfitting. On
         # FL_THERMAL the prior's weak pull (λ 0.001) hid a bearing heat law that cuts the unseen final block's
-        # ch3 error from 53.7 to 16.8 µm.
-        cal = calibrate(fit_rec, None, intervals=False, max_evaluations=baseline_evaluations, prior_strength=0.0)
+        # ch3 error from 53.7 to 16.8 µm. Its hidden-node count is chosen on the inner validation block first.
+        hidden, structure = adequacy.choose_hidden(recording, inner, val_rows, scenario, baseline_evaluations,
+                                                   screening.baseline_of)
+        cal = calibrate(fit_rec, None, hidden_nodes=hidden, intervals=False, max_evaluations=baseline_evaluations,
+                        prior_strength=0.0)
     else:
         cal = calibrate(fit_rec, network, free=[], intervals=False)
     channels = list(cal.sigma)
     kinds = [cal.channel_kind[c] for c in channels]
     sigma = np.array([cal.sigma[c] for c in channels])
-    scenario = Scenario.from_recording(recording)
     measured = recording.data[channels].to_numpy(dtype=float)
     rows = np.flatnonzero(fit_rows)
     blocks = condition_blocks(recording, rows)
-    inner_rows = fit_rows & (t < final_cut(fit_rec))
     inner_rec = recording.select(inner_rows)
-    inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
     before_validation = ~np.isin(np.arange(int(blocks.max()) + 1), blocks[np.isin(rows, val_rows)])
     displacement = np.array([k == "displacement" for k in kinds])
     base = screening.baseline_of(cal.network, scenario, channels, measured, rows, sigma)
@@ -169,6 +184,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     windows = driver_windows(recording)
     trace: list[dict[str, Any]] = []
     screened = 0
+    adequate: dict[str, Any] = {}
     for round_ in range(max_rounds):
         cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only)
         if round_ == 0:
@@ -186,50 +202,74 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             singles.setdefault(c.mechanism, []).append(c)
         per_mech = [screening.best_compound(screen, v) for v in singles.values()]
         ranked = sorted([c for c in per_mech if c.dsse_bal > 0], key=lambda c: -c.dsse_bal)[:top]
+        # whitening favours fast signatures; the mechanism explaining most of the plain (unwhitened) residual is
+        # fitted too, so that a slow one (a lagged ambient, a chiller) is judged by the same tests
+        plain = screening.prepare(base, measured, sigma, kinds, channels, rows, blocks,
+                                  noise=NoiseModel.white(len(channels)))
+        by_plain = sorted(((screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
+                                                              for c in v]).dsse_bal, mid)
+                           for mid, v in singles.items()), reverse=True)
+        have = {c.mechanism for c in ranked}
+        extra = [c for gain, mid in by_plain[:PLAIN_TOP] for c in per_mech
+                 if c.mechanism == mid and mid not in have and gain > 0 and c.dsse_bal > 0]
+        ranked += extra
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
         validation = selection.Validation(inner_rec, inner, val_rows, screening.baseline_of(
             base.network, scenario, channels, measured, inner, sigma).readings, screen, before_validation)
+        if round_ == 0:
+            adequate = adequacy.assess(channels, kinds, sigma, measured, base.readings, rows, val_rows,
+                                       validation.base_readings, screen.noise)
+            adequate["hidden_nodes"] = structure
         fitted = []
         for c in ranked:
             try:
                 fitted.append(selection.fit(c, base.network, fit_rec, scenario, channels, measured, sigma, weights,
                                             base.readings, rows, blocks, fit_evaluations, validation=validation,
-                                            displacement=displacement))
+                                            displacement=displacement, noise=screen.noise))
             except InputError as exc:  # the augmented network cannot be simulated at some parameter value
                 rejected.append({"mechanism": c.mechanism, "reason": f"fit failed: {exc}"})
         if not fitted:
             break
-        floor = MIN_SHARE * screen.sse0_bal
+        level = round_level(alpha, round_)
+        for f in fitted:  # how much the error the candidate leaves varies from block to block
+            f.spread = _block_spread(measured, f.readings, sigma, weights, rows, blocks, val_rows)
+        # Benjamini–Hochberg over every candidate screened this round: the fitted ones with their re-simulated
+        # whitened likelihood ratio, the others with their screening one
+        fitted_ids = {id(f.candidate) for f in fitted}
+        pvals = [f.p_value for f in fitted] + [c.p_value for c in cands if id(c) not in fitted_ids]
+        discovered = benjamini_hochberg(pvals, level)[:len(fitted)]
+        test = {"test": "likelihood ratio on AR-whitened residuals (noise model from the baseline's residual), "
+                        "Benjamini–Hochberg over the round's candidates", "level": level, "candidates": m}
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
-            "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0} for f in fitted]
-        passing = [f for f in fitted if f.p_value < alpha / m and f.candidate.cv_gain > 0
-                   and f.candidate.cv_wins >= 0.5 and f.dsse_bal >= floor and not f.outside and _validates(f)]
+            "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
+            "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
+            "remaining_block_spread": f.spread} for f, d in zip(fitted, discovered)]
+        passing = [f for f, d in zip(fitted, discovered) if d and f.dsse_bal > 0 and f.candidate.cv_gain > 0
+                   and f.candidate.cv_wins >= 0.5 and not f.outside and _validates(f, len(val_rows))]
         if not passing:
-            for f in fitted:
-                rejected.append({"mechanism": f.candidate.mechanism, "reason": _why_not(f, alpha, m, floor)})
+            for f, d in zip(fitted, discovered):
+                rejected.append({"mechanism": f.candidate.mechanism,
+                                 "reason": _why_not(f, d, level, m, len(val_rows))})
             break
-        win = selection.parsimonious(passing, alpha)
+        win = selection.parsimonious(passing, level)
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
-        sse0_blocks = np.zeros(int(blocks.max()) + 1)
-        for w_g, members in zip(screen.weights, screen.groups):
-            for c_ in members:
-                sse0_blocks += w_g * np.bincount(blocks, screen.resid[c_] ** 2, minlength=len(sse0_blocks))
-        inclusion = selection.bootstrap_inclusion(fitted, sse0_blocks, m, alpha, MIN_SHARE, bootstrap, seed + round_)
+        inclusion = selection.bootstrap_inclusion(fitted, int(blocks.max()) + 1, m, level, bootstrap, seed + round_)
+        win = selection.identified(win, fit_rec, fit_evaluations)
         findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
-                                 kinds, channels, windows, t, alpha))
+                                 kinds, channels, windows, t, test))
         for f in rivals:
             rejected.append({"mechanism": f.candidate.mechanism,
                              "reason": f"not identifiable from this data: explains the residual as well as "
                                        f"{win.candidate.mechanism} (within {EQUIVALENT:.0%}); "
                                        f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
-        for f in fitted:
-            if f is not win and f not in rivals:
-                reason = (_why_not(f, alpha, m, floor) if f not in passing else
+        for f, d in zip(fitted, discovered):
+            if f is not win and f not in rivals and f.candidate is not win.candidate:
+                reason = (_why_not(f, d, level, m, len(val_rows)) if f not in passing else
                           f"explains less than {win.candidate.mechanism} "
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
@@ -243,7 +283,19 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     return Diagnosis(channels, kinds, t, measured, first.readings, base.readings, fit_rows, findings,
                      _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(recording),
                      cal.network, base.network, screened, time.perf_counter() - clock,
-                     scenario.frame["speed_rpm"].to_numpy(), trace)
+                     scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
+
+
+def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows) -> float:
+    """Standard error of a model's mean balanced squared error (noise units, per sample) over one held-out block
+    as large as the validation block: the standard deviation of its per-block means over the condition blocks
+    of the screening rows, over √(blocks in the validation block)."""
+    sq = (((measured - readings) / sigma)[rows]) ** 2 @ weights
+    nb = int(blocks.max()) + 1
+    counts = np.bincount(blocks, minlength=nb)
+    means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
+    k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
+    return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
@@ -255,29 +307,35 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
     return out
 
 
-def _validates(f) -> bool:
-    """The fit made without the inner validation block predicts it better (balanced), and its drift is no
-    worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at the noise floor the
-    sum of squares of n values varies by √(2n) noise units)."""
+def _validates(f, n_val: int, gate: bool = True) -> bool:
+    """The fit made without the inner validation block predicts it better (balanced) by more, per sample, than
+    the error it leaves varies from block to block (``f.spread``: :func:`_block_spread`; the structural misfit
+    no candidate explains sets the scale, in the machine's own units; not with ``gate`` False), and its drift
+    is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
+    the noise floor the sum of squares of n values varies by √(2n) noise units)."""
     slack = max(VAL_DRIFT_SLACK * f.val_disp0, VAL_DRIFT_Z * np.sqrt(2.0 * f.val_disp_n))
-    return f.val_bal > 0 and not f.val_disp < -slack
+    spread = f.spread if gate else 0.0
+    return f.val_bal > spread * max(n_val, 1) and f.val_bal > 0 and not f.val_disp < -slack
 
 
-def _why_not(f, alpha: float, m: int, floor: float) -> str:
+def _why_not(f, discovered: bool, level: float, m: int, n_val: int) -> str:
     c = f.candidate
-    if f.dsse <= 0:
-        return "re-simulated fit does not lower the misfit"
-    if f.p_value >= alpha / m:
-        return f"not significant: likelihood ratio {f.dsse:.3g}, p = {f.p_value:.2g} ≥ {alpha:g}/{m} (Bonferroni)"
-    if f.dsse_bal < floor:
-        return f"explains under {MIN_SHARE:.0%} of the baseline's misfit"
+    if f.dsse <= 0 or f.dsse_bal <= 0:
+        return "re-simulated fit does not lower the (whitened) misfit"
+    if not discovered:
+        return (f"not significant: whitened likelihood ratio {f.dsse:.3g}, p = {f.p_value:.2g}, not a discovery at "
+                f"false-discovery level {level:g} (Benjamini–Hochberg over {m} candidates)")
     if f.outside:
         return "fits only with unphysical values: " + "; ".join(f.outside)
-    if not _validates(f):
-        return ("fitted without the last part of the fitted data, it does not predict that part better than the "
-                f"baseline (noise-weighted gain {f.val_bal:.3g}; on the drift channels {f.val_disp:.3g} of "
-                f"{f.val_disp0:.3g})")
-    return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
+    if c.cv_gain <= 0 or c.cv_wins < 0.5:
+        return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
+    if _validates(f, n_val, gate=False):
+        return ("fitted without the last part of the fitted data, it predicts that part better than the baseline "
+                f"by {f.val_bal / max(n_val, 1):.3g} per sample (noise units), within the {f.spread:.3g} by which "
+                "the error it leaves varies from block to block: structural misfit, not this mechanism")
+    return ("fitted without the last part of the fitted data, it does not predict that part better than the "
+            f"baseline (noise-weighted gain {f.val_bal:.3g}; on the drift channels {f.val_disp:.3g} of "
+            f"{f.val_disp0:.3g})")
 
 
 def _experiment(a: str, b: str) -> str:
@@ -286,7 +344,19 @@ def _experiment(a: str, b: str) -> str:
     return f"to separate them: {ea} (for {a}) against {eb} (for {b})"
 
 
-def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, kinds, channels, windows, t, alpha):
+def fitted_label(win) -> str:
+    """The winner's label with its fitted values in place of the screening's start shape (fixed shape values
+    as screened)."""
+    c = win.candidate
+    shown = dict(c.shape)
+    for k, v in {**win.parameters, **win.fixed}.items():
+        base = k.split("[")[0].split("@")[0]
+        shown[base if base in c.shape else k] = v
+    text = ", ".join(f"{k}={v:.4g}" for k, v in shown.items())
+    return f"{c.label.split(' (')[0]}" + (f" ({text})" if text else "")
+
+
+def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, kinds, channels, windows, t, test):
     c = win.candidate
     disp = [j for j, k in enumerate(kinds) if k == "displacement"]
     gain = ((measured - before) / sigma) ** 2 - ((measured - after) / sigma) ** 2
@@ -308,18 +378,32 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
     where = [w for _, w in sorted(where, key=lambda x: -x[0])[:3]]
     conf = float(inclusion.get(c.mechanism, 0.0))
     share = win.dsse_bal / screen.sse0_bal if screen.sse0_bal > 0 else 0.0
-    evidence = (f"{c.label} explains {share:.0%} of the baseline's misfit on the fitted data "
-                f"(likelihood ratio {win.dsse:.3g}, p = {win.p_value:.2g} < {alpha:g}/{m}, Bonferroni over "
-                f"{m} candidates; held-out condition blocks improved: {c.cv_wins:.0%}), as its signature says: "
-                f"{c.signature}")
+    label = fitted_label(win)
+    evidence = (f"{label} explains {share:.0%} of the baseline's whitened misfit on the fitted data "
+                f"({test['test']}: likelihood ratio {win.dsse:.3g} on {win.dof} parameter(s), p = {win.p_value:.2g}, "
+                f"a discovery at false-discovery level {test['level']:g} among {m} candidates; held-out condition "
+                f"blocks improved: {c.cv_wins:.0%}; fitted without the inner validation block it predicts that "
+                f"block better than the baseline), as its signature says: {c.signature}")
+    if win.fixed:
+        evidence += ("; not identifiable from this data and held at the fitted value: "
+                     + ", ".join(f"{k} = {v:.4g}" for k, v in win.fixed.items()))
     if rivals:
         evidence += ("; not identifiable from this data against " + ", ".join(r.candidate.mechanism for r in rivals)
                      + " (" + _experiment(c.mechanism, rivals[0].candidate.mechanism) + ")")
     return {"mechanism": c.mechanism, "confidence": round(conf, 3),
-            "parameters": {k: round(v, 6) for k, v in win.parameters.items()},
-            "ci": {k: (None if v is None else [round(v[0], 6), round(v[1], 6)]) for k, v in win.ci.items()},
+            "parameters": {k: _round(v) for k, v in win.parameters.items()},
+            "ci": {k: [_round(min(v[0], win.parameters[k])), _round(max(v[1], win.parameters[k]))]
+                   for k, v in win.ci.items()},
             "where": [{k: (round(v, 1) if isinstance(v, float) else v) for k, v in w.items() if k != "window"}
                       for w in where],
             "evidence": evidence + ".",
+            "test": test["test"], "statistic": round(float(win.dsse), 4), "dof": int(win.dof),
+            "p_value": float(f"{win.p_value:.4g}"), "fdr_level": test["level"],
+            "fixed": {k: _round(v) for k, v in win.fixed.items()}, "label": label,
             "_place": c.options, "_shape": c.shape, "_windows": [w["window"] for w in where],
             "_gain_share": share}
+
+
+def _round(x: float) -> float:
+    """Six significant digits (a fixed number of decimals would print a small parameter as 0)."""
+    return float(f"{x:.6g}")

@@ -11,6 +11,11 @@ neither screening, selection nor fitting saw)::
      "augmented": {"rmse_um": {...}, "heldout_rmse_um": {...}},
      "verdict": "one paragraph"}
 
+Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``, ``p_value``, ``fdr_level``,
+``fixed`` (parameters the data cannot identify, held at their fitted value) and ``label``; at the top level
+``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried).
+
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
 channel: measured, baseline, augmented). Logging them to MLflow is the verb's
@@ -35,7 +40,8 @@ def _r(x: float) -> float:
 
 def to_json(d) -> dict[str, Any]:
     fit, final = d.fit_rows, ~d.fit_rows
-    findings = [{k: f[k] for k in ("mechanism", "confidence", "parameters", "ci", "where", "evidence")}
+    findings = [{k: f[k] for k in ("mechanism", "confidence", "parameters", "ci", "where", "evidence", "test",
+                                   "statistic", "dof", "p_value", "fdr_level", "fixed", "label") if k in f}
                 for f in d.findings]
     return {
         "baseline": {"rmse_um": {c: _r(v) for c, v in d.rmse(d.baseline, fit).items()},
@@ -45,6 +51,7 @@ def to_json(d) -> dict[str, Any]:
         "augmented": {"rmse_um": {c: _r(v) for c, v in d.rmse(d.augmented, fit).items()},
                       "heldout_rmse_um": {c: _r(v) for c, v in d.rmse(d.augmented, final).items()}},
         "verdict": verdict(d),
+        "adequacy": d.adequacy,
     }
 
 
@@ -59,6 +66,15 @@ def _what(mechanism: str) -> str:
         return mechanism.replace("_", " ")
 
 
+def _structural(d) -> str:
+    """A sentence on how far the baseline's drift misfit exceeds noise, empty when it does not."""
+    a = getattr(d, "adequacy", {}) or {}
+    if not a.get("structural"):
+        return ""
+    return "; ".join(f"{c}: {v['rmse_um']:.3g} µm fitted, {v['misfit_over_noise']:.3g} times the probe noise, "
+                     f"residual AR coefficient sum {v['residual_ar_sum']:.3g}" for c, v in a["channels"].items())
+
+
 def verdict(d) -> str:
     final = ~d.fit_rows
     before, after = d.rmse(d.baseline, final), d.rmse(d.augmented, final)
@@ -67,11 +83,18 @@ def verdict(d) -> str:
     far = [c for c in before if before[c] > 3 * fitted[c]]
     outside = (f" The calibrated model itself misses the final block by over 3 times its fitted error on "
                f"{', '.join(far)}: that block's conditions lie outside those it was fitted on." if far else "")
+    structural = _structural(d)
     if not d.findings:
-        return ("Nothing is missing as far as this data can tell: no mechanism in the library explains a "
-                "significant share of what the calibrated model misses (every candidate failed the corrected "
-                "likelihood-ratio test, the held-out condition blocks or the 5 % floor; see rejected). "
-                f"The calibrated model's drift error on the final, unseen block: "
+        head = ("Nothing is missing as far as this data can tell: no mechanism in the library explains what the "
+                "calibrated model misses (every candidate failed the whitened likelihood-ratio test at the "
+                "stated false-discovery level, the held-out condition blocks or the held-out validation block; "
+                "see rejected). ")
+        if structural:
+            head = ("The calibrated model misses more than noise, and no mechanism in the library explains it: the "
+                    f"misfit is structural ({structural}). It is not that nothing is missing: the baseline network "
+                    "itself cannot represent this machine, and no candidate predicts held-out data better; a "
+                    "different network (more nodes or paths between them) is what the data asks for. ")
+        return (head + "The calibrated model's drift error on the final, unseen block: "
                 + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + "." + outside)
     parts = []
     for f in d.findings:
@@ -92,6 +115,10 @@ def verdict(d) -> str:
                  f"{selection.EXPERIMENTS.get(d.findings[0]['mechanism'], 'an experiment driving it alone')} "
                  "before compensating with it.")
     text += outside
+    structural = _structural(d)
+    if structural:
+        text += (" Besides the findings, the baseline's misfit is structural, beyond noise before any mechanism ("
+                 + structural + "): what the findings do not explain of it no mechanism in the library does.")
     if unsure:
         text += " " + " ".join(f"{r['mechanism'].replace('_', ' ')} would explain it as well ({r['reason']})."
                                for r in unsure)
@@ -124,27 +151,53 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
     for c in doc["baseline"]["rmse_um"]:
         lines.append(f"| {c} | {doc['baseline']['rmse_um'][c]:.3f} | {doc['baseline']['heldout_rmse_um'][c]:.3f} | "
                      f"{doc['augmented']['rmse_um'][c]:.3f} | {doc['augmented']['heldout_rmse_um'][c]:.3f} |")
+    a = doc.get("adequacy") or {}
+    if a.get("channels"):
+        lines += ["", "## Baseline adequacy", "", "Before mechanisms compete: the baseline's drift misfit against the "
+                  "probe noise, its residual's autocorrelation (sum of the AR coefficients of the noise model the "
+                  "tests use; near 1: slow, structural misfit) and its error on the inner validation block (linear "
+                  "map refitted without it) against its fitted error.", "",
+                  "| channel | fitted RMSE (µm) | noise (µm) | misfit / noise | validation RMSE (µm) | "
+                  "validation / fitted | residual AR sum |", "|---|---:|---:|---:|---:|---:|---:|"]
+        for c, v in a["channels"].items():
+            lines.append(f"| {c} | {v['rmse_um']:.3g} | {v['noise_um']:.3g} | {v['misfit_over_noise']:.3g} | "
+                         f"{v['validation_rmse_um']:.3g} | {v['validation_over_fitted']} | "
+                         f"{v['residual_ar_sum']:.3g} |")
+        if a.get("hidden_nodes"):
+            lines += ["", "Hidden nodes of the auto network, chosen on the inner validation block (balanced "
+                      "noise-weighted mean squared error): " + "; ".join(
+                          f"{h['hidden_nodes']} (start τ {', '.join(f'{x:g}' for x in h['time_constants_h'])} h): "
+                          f"fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
+                          + (" (chosen)" if h.get("chosen") else "")
+                          for h in a["hidden_nodes"]) + "."]
     lines += ["", "## Findings", ""]
     if not d.findings:
         lines.append("None.")
     for f in d.findings:
-        lines += [f"### {f['mechanism']} (confidence {f['confidence']:.2f})", "", f["evidence"], "",
-                  "| parameter | value | interval |", "|---|---:|---|"]
+        lines += [f"### {f.get('label', f['mechanism'])} (confidence {f['confidence']:.2f})", "",
+                  f"Test: {f['test']}; statistic {f['statistic']:.4g} ({f['dof']} parameters), p = {f['p_value']:.2g}; "
+                  f"false-discovery level {f['fdr_level']:g}.", "", f["evidence"], "",
+                  "| parameter | fitted value | interval |", "|---|---:|---|"]
         for k, v in f["parameters"].items():
-            ci = f["ci"].get(k)
-            lines.append(f"| {k} | {v:.4g} | {'—' if ci is None else f'[{ci[0]:.4g}, {ci[1]:.4g}]'} |")
+            ci = f["ci"][k]
+            lines.append(f"| {k} | {v:.4g} | [{ci[0]:.4g}, {ci[1]:.4g}] |")
+        for k, v in f["fixed"].items():
+            lines.append(f"| {k} | {v:.4g} (held: not identifiable) | — |")
         lines += ["", "Where: " + "; ".join(f"{w['channel']} in {name}" for w, name in zip(f["where"], f["_windows"]))
                   if f["where"] else "Where: spread over the whole recording.", ""]
     lines += ["## Candidates fitted by re-simulation", "",
-              "Share of the baseline's (balanced) misfit explained by the linearised screening and by the "
-              "re-simulated fit; LR: drop of the noise-weighted sum of squares; blocks: share of condition blocks "
+              "Share of the baseline's (balanced, whitened) misfit explained by the linearised screening and by the "
+              "re-simulated fit; LR: drop of the whitened sum of squares (noise model from the baseline's own "
+              "residual); discovery: Benjamini–Hochberg at the round's false-discovery level; blocks: share of "
+              "condition blocks "
               "the linearised screening predicts better when left out; validation: drop of the balanced "
               "(drift channels alone) noise-weighted sum of squares on the inner validation block, fitted "
               "without it (> 0: better than the baseline).", "",
-              "| round | candidate | screening share | fitted share | LR | p | blocks improved | validation |",
-              "|---:|---|---:|---:|---:|---:|---:|---:|"]
+              "| round | candidate | screening share | fitted share | LR | p | discovery (level) | blocks improved | "
+              "validation |", "|---:|---|---:|---:|---:|---:|---|---:|---:|"]
     lines += [f"| {t['round']} | {t['candidate']} | {t['screen_share']:.1%} | {t['fit_share']:.1%} | {t['lr']:.3g} | "
-              f"{t['p_value']:.2g} | {t['blocks_improved']:.0%} | {t['validation_gain']:.3g} "
+              f"{t['p_value']:.2g} | {'yes' if t['discovered'] else 'no'} ({t['level']:g}) | "
+              f"{t['blocks_improved']:.0%} | {t['validation_gain']:.3g} "
               f"({t['validation_gain_displacement']:.3g}) |" for t in d.trace]
     lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
     lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]

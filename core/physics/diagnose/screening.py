@@ -27,6 +27,7 @@ from scipy.optimize import lsq_linear
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import predict
+from thermodrift.core.physics.diagnose.noise import NoiseModel
 from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.synthetic import PT100_TOLERANCE
 
@@ -199,7 +200,10 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
 
 def _basis(Z: np.ndarray, rows: np.ndarray) -> np.ndarray:
     """Orthonormal basis of the columns of Z on ``rows`` (numerically dependent columns dropped)."""
-    A = Z[rows]
+    return _basis_of(Z[rows])
+
+
+def _basis_of(A: np.ndarray) -> np.ndarray:
     A = A / np.maximum(np.abs(A).max(axis=0), 1e-12)
     U, sv, _ = np.linalg.svd(A, full_matrices=False)
     return U[:, sv > LINEAR_RCOND * sv[0]] if len(sv) and sv[0] > 0 else U[:, :0]
@@ -229,7 +233,14 @@ class Screen:
     weights: np.ndarray              # per group
     base: Baseline
     sigma: np.ndarray
-    bases: list[np.ndarray]          # per channel, orthonormal basis of the baseline's linear regressors
+    bases: list[np.ndarray]          # per channel, orthonormal basis of the whitened linear regressors
+    noise: NoiseModel                # AR whitening per channel, from the baseline's own residual
+
+    def transform(self, c: int, vec: np.ndarray) -> np.ndarray:
+        """Channel ``c``'s series (all samples, °C or µm) on the screening rows: divided by its noise σ,
+        whitened by the baseline's noise model and with the whitened linear regressors projected out."""
+        w = self.noise.apply(c, vec[self.rows] / self.sigma[c])
+        return w - self.bases[c] @ (self.bases[c].T @ w)
 
     @property
     def temps_first(self) -> bool:
@@ -240,10 +251,18 @@ class Screen:
 
 
 def prepare(base: Baseline, measured: np.ndarray, sigma: np.ndarray, kinds: list[str], channels: list[str],
-            rows: np.ndarray, blocks: np.ndarray) -> Screen:
-    bases = [_basis(base.nuisance[c], rows) for c in range(len(channels))]
-    resid = [_project(bases[c], rows, (measured[:, c] - base.readings[:, c]) / sigma[c])
+            rows: np.ndarray, blocks: np.ndarray, noise: NoiseModel | None = None) -> Screen:
+    """The screen of ``base``'s residual on ``rows``; ``noise`` (default: fitted to this residual,
+    :mod:`.noise`) whitens residuals and responses alike."""
+    plain = [_project(_basis(base.nuisance[c], rows), rows, (measured[:, c] - base.readings[:, c]) / sigma[c])
              for c in range(len(channels))]
+    if noise is None:
+        noise = NoiseModel(np.column_stack(plain))
+    bases = [_basis_of(noise.apply(c, base.nuisance[c][rows])) for c in range(len(channels))]
+    resid = []
+    for c in range(len(channels)):
+        w = noise.apply(c, (measured[rows, c] - base.readings[rows, c]) / sigma[c])
+        resid.append(w - bases[c] @ (bases[c].T @ w))
     temps = [i for i, k in enumerate(kinds) if k == "temperature"]
     disps = [i for i, k in enumerate(kinds) if k == "displacement"]
     groups = ([temps] if temps else []) + [[i] for i in disps]
@@ -252,7 +271,7 @@ def prepare(base: Baseline, measured: np.ndarray, sigma: np.ndarray, kinds: list
     weights = np.array(([share / len(temps)] if temps else []) + [share / len(disps)] * len(disps))
     sse0 = float(sum(r @ r for r in resid))
     sse0_bal = float(sum(w * sum(resid[c] @ resid[c] for c in m) for w, m in zip(weights, groups)))
-    return Screen(rows, blocks, groups, names, resid, sse0, sse0_bal, weights, base, sigma, bases)
+    return Screen(rows, blocks, groups, names, resid, sse0, sse0_bal, weights, base, sigma, bases, noise)
 
 
 def _nonneg_first(screen: Screen, cand: Candidate) -> bool:
@@ -263,8 +282,7 @@ def score(screen: Screen, cand: Candidate, n_tests: int) -> Candidate:
     """Fill the candidate's screening scores (see the module docstring)."""
     nb = int(screen.blocks.max()) + 1
     stats_ = np.zeros((nb, len(screen.groups), 3))
-    R = [_project(screen.bases[c], screen.rows, cand.response[:, c] / screen.sigma[c])
-         for c in range(len(screen.resid))]
+    R = [screen.transform(c, cand.response[:, c]) for c in range(len(screen.resid))]
     cand.projected = R
     for g, members in enumerate(screen.groups):
         for c in members:

@@ -37,8 +37,10 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from thermodrift.core.physics.calibration import FreeParameter, calibrate
-from thermodrift.core.physics.diagnose.screening import SHAPES, Candidate, Screen, _place_text, baseline_of, restricted
+from thermodrift.core.physics.calibration import UNIDENTIFIABLE_RATIO, FreeParameter, calibrate
+from thermodrift.core.physics.diagnose.noise import NoiseModel
+from thermodrift.core.physics.diagnose.screening import (SHAPES, Candidate, Screen, _basis_of, _place_text, baseline_of,
+                                                        restricted)
 from thermodrift.core.physics.network import Network
 
 EQUIVALENT = 0.05   # rival within this share of the winner's balanced gain: a candidate for "not identifiable"
@@ -79,6 +81,9 @@ class Fitted:
     val_disp: float = float("nan")  # the same over the displacement channels alone
     val_disp0: float = float("nan")  # the baseline's noise-weighted sum of squares there, displacement channels
     val_disp_n: int = 0              # the number of displacement values it sums
+    declared: list = field(default_factory=list)  # (FreeParameter, start) of every parameter the mechanism declares
+    fixed: dict[str, float] = field(default_factory=dict)  # parameters the data cannot identify, held at a value
+    spread: float = 0.0  # standard error of its held-out block error (noise units per sample), set by the finder
 
 
 def _declared(cand: Candidate, base: Network,
@@ -140,18 +145,19 @@ class Validation:
 def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[str], measured: np.ndarray,
         sigma: np.ndarray, weights: np.ndarray, base_readings: np.ndarray, rows: np.ndarray, blocks: np.ndarray,
         max_evaluations: int, level: float = 0.95, validation: Validation | None = None,
-        displacement: np.ndarray | None = None) -> Fitted:
+        displacement: np.ndarray | None = None, noise: NoiseModel | None = None) -> Fitted:
     """Calibrate the candidate's free parameters by re-simulation and score the augmented network.
 
     ``weights`` per channel balance the channel kinds for ``dsse_bal``; ``displacement`` marks the
-    displacement channels (bool per channel) for ``val_disp``.
+    displacement channels (bool per channel) for ``val_disp``; ``noise`` whitens the residuals of the fitted
+    rows before their sums of squares are compared (:mod:`.noise`; None: white, in units of ``sigma``).
     """
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
-                  blocks, max_evaluations, level, intervals=True)
+                  blocks, max_evaluations, level, intervals=True, noise=noise)
     if validation is not None:
         inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario,
                      channels, measured, sigma, weights, validation.base_readings, validation.inner, None,
-                     max_evaluations, level, intervals=False)
+                     max_evaluations, level, intervals=False, noise=noise)
         d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
@@ -162,9 +168,35 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     return fitted
 
 
+def _free_parameters(searched: list[tuple[FreeParameter, float]]) -> list[FreeParameter]:
+    """The calibration's free parameters (network units, within the physical bounds) of mechanism parameters
+    at the given values."""
+    return [fp.on_network_scale(v) for fp, v in searched]
+
+
+def _squares(resid: np.ndarray, noise: NoiseModel | None, nuisance: list[np.ndarray] | None = None,
+             rows: np.ndarray | None = None) -> np.ndarray:
+    """Squared residuals (rows, channels) in noise units, whitened per channel by ``noise``; with the
+    ``nuisance`` regressors of the model (per channel, all samples) their whitened span is projected out, so
+    that the linear parameters count as fitted by generalised least squares under that noise model, as in the
+    screening (the readings solve them by ordinary least squares, which can leave steps the whitening
+    magnifies)."""
+    if noise is None:
+        return resid ** 2
+    out = []
+    for c in range(resid.shape[1]):
+        w = noise.apply(c, resid[:, c])
+        if nuisance is not None:
+            Q = _basis_of(noise.apply(c, nuisance[c][rows]))
+            w = w - Q @ (Q.T @ w)
+        out.append(w)
+    return np.column_stack(out) ** 2
+
+
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
-         max_evaluations, level, intervals: bool) -> Fitted:
-    d0 = (((measured - base_readings) / sigma)[rows]) ** 2
+         max_evaluations, level, intervals: bool, noise: NoiseModel | None = None) -> Fitted:
+    base_nuisance = baseline_of(base, scenario, channels, measured, rows, sigma).nuisance if noise else None
+    d0 = _squares(((measured - base_readings) / sigma)[rows], noise, base_nuisance, rows)
     best = None
     for start in (_declared(cand, base), _declared(cand, base, scale_held=True)):
         if start is None:
@@ -172,12 +204,13 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
         net, declared = start
         searched = [(fp, v) for fp, v in declared if fp.scale in ("log", "linear")]
         net = net.with_values({p: fp.network_value(v) for fp, v in searched for p in fp.paths})
-        free = [fp.on_network_scale(v) for fp, v in searched]
+        free = _free_parameters(searched)
         for search in ([True, False] if free else [False]):  # the search result, then its start (see above)
             res = calibrate(fit_recording, net, free=free if search else [], intervals=search and intervals,
                             level=level, max_evaluations=max_evaluations)
-            readings = baseline_of(res.network, scenario, channels, measured, rows, sigma).readings
-            d1 = (((measured - readings) / sigma)[rows]) ** 2
+            refit = baseline_of(res.network, scenario, channels, measured, rows, sigma)
+            readings = refit.readings
+            d1 = _squares(((measured - readings) / sigma)[rows], noise, refit.nuisance, rows)
             dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
             if best is None or dsse_bal > best[3]:
                 best = (res, readings, d1, dsse_bal, declared)
@@ -185,16 +218,7 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
     dsse = float(d0.sum() - d1.sum())
     dof = max(len(declared), 1)
     values = res.network.parameters()
-    params, ci = {}, {}
-    est = {e.name: e for e in res.estimates}
-    for fp, _ in declared:
-        params[fp.name] = float(fp.from_network(values[fp.paths[0]]))
-        e = est.get(fp.name)
-        if e is not None and math.isfinite(e.low) and math.isfinite(e.high):
-            ends = sorted((fp.from_network(e.low), fp.from_network(e.high)))
-            ci[fp.name] = [float(ends[0]), float(ends[1])]
-        else:
-            ci[fp.name] = None
+    params, ci = _values_and_intervals(res, declared)
     slack = 1e-6
     outside = [f"{fp.name} = {params[fp.name]:.4g} {fp.unit} outside [{fp.low:g}, {fp.high:g}]" for fp, _ in declared
                if not fp.low - slack * abs(fp.low) <= params[fp.name] <= fp.high + slack * abs(fp.high)]
@@ -205,7 +229,88 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
         block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
         block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
-                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal)
+                  float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal,
+                  declared=declared)
+
+
+def _values_and_intervals(res, declared) -> tuple[dict[str, float], dict[str, list[float] | None]]:
+    """Each declared parameter's value in the calibrated network and its interval (None where the calibration
+    gave none): searched ones from the calibration's estimates, projected ones from its linear intervals."""
+    values = res.network.parameters()
+    est = {e.name: e for e in res.estimates}
+    params, ci = {}, {}
+    for fp, _ in declared:
+        params[fp.name] = float(fp.from_network(values[fp.paths[0]]))
+        e = est.get(fp.name)
+        ends = None
+        if e is not None and math.isfinite(e.low) and math.isfinite(e.high):
+            ends = (e.low, e.high)
+        elif fp.scale == "projected" and len(fp.paths) == 1:
+            ends = _linear_interval(res, fp.paths[0])
+        if ends is not None:
+            lo, hi = sorted((fp.from_network(ends[0]), fp.from_network(ends[1])))
+            ci[fp.name] = [float(lo), float(hi)]
+        else:
+            ci[fp.name] = None
+    return params, ci
+
+
+def _linear_interval(res, path: str) -> tuple[float, float] | None:
+    """The calibration's interval of a linear output parameter (``outputs.<out>.centrifugal_um`` or
+    ``outputs.<out>.sensitivity_um_K.<node>``), None where it has none."""
+    parts = path.split(".")
+    if parts[0] != "outputs" or len(parts) < 3:
+        return None
+    key = "centrifugal" if parts[2] == "centrifugal_um" else parts[-1]
+    for s in res.network.sensors:
+        if getattr(s, "output", None) == parts[1]:
+            got = res.linear_ci.get(s.name, {}).get(key)
+            if got and got[0] is not None and got[1] is not None:
+                return float(got[0]), float(got[1])
+    return None
+
+
+def trustworthy(value: float, interval: list[float] | None, fp: FreeParameter) -> bool:
+    """True when ``interval`` is finite, contains ``value`` and is narrower than the parameter's physical range
+    (for a log parameter: its high/low ratio below the calibration's ``UNIDENTIFIABLE_RATIO``)."""
+    if interval is None or not all(map(math.isfinite, interval)):
+        return False
+    lo, hi = interval
+    slack = 1e-9 * max(abs(value), 1e-300)
+    if not lo - slack <= value <= hi + slack or hi - lo >= abs(fp.high - fp.low):
+        return False
+    return fp.scale != "log" or (lo > 0 and hi / lo < UNIDENTIFIABLE_RATIO)
+
+
+def _intervals(network: Network, fit_recording, searched: list[tuple[FreeParameter, float]],
+               level: float) -> dict[str, list[float] | None]:
+    """Intervals of the ``searched`` parameters at their values in ``network`` (the others held), from the
+    calibration's Jacobian there (one evaluation, no search)."""
+    res = calibrate(fit_recording, network, free=_free_parameters(searched), intervals=True, level=level,
+                    max_evaluations=1)
+    return _values_and_intervals(res, searched)[1]
+
+
+def identified(win: Fitted, fit_recording, max_evaluations: int, level: float = 0.95) -> Fitted:
+    """``win`` with the parameters the data cannot identify (:func:`trustworthy` fails) fixed at their fitted
+    value and left out of ``parameters`` and ``ci`` (named in ``fixed``); the intervals of the others are
+    recomputed with those held (the network, its readings and the statistics stay as fitted)."""
+    by_name = {fp.name: fp for fp, _ in win.declared}
+    params, ci = dict(win.parameters), dict(win.ci)
+    searched = [(fp, params[fp.name]) for fp, _ in win.declared if fp.scale in ("log", "linear")]
+    if any(ci.get(fp.name) is None for fp, _ in searched):  # kept from its start, the fit has no intervals yet
+        ci.update(_intervals(win.network, fit_recording, searched, level))
+    bad = {k for k, v in params.items() if not trustworthy(v, ci.get(k), by_name[k])}
+    if not bad:
+        return dataclasses.replace(win, ci=ci)
+    keep = [(fp, v) for fp, v in searched if fp.name not in bad]
+    if keep:
+        ci.update(_intervals(win.network, fit_recording, keep, level))
+    for _ in range(2):  # a parameter whose interval is still untrustworthy with the others held joins them
+        bad |= {k for k in params if k not in bad and not trustworthy(params[k], ci.get(k), by_name[k])}
+    return dataclasses.replace(win, parameters={k: v for k, v in params.items() if k not in bad},
+                               ci={k: v for k, v in ci.items() if k not in bad},
+                               fixed={k: params[k] for k in sorted(bad)})
 
 
 def indistinguishable(raw: np.ndarray, bal: np.ndarray, alpha: float) -> bool:
@@ -241,24 +346,24 @@ def parsimonious(passing: list[Fitted], alpha: float) -> Fitted:
     return passing[_simplest(passing, gain, raw, bal, int(np.argmax(gain)), list(range(len(passing))), alpha)]
 
 
-def bootstrap_inclusion(fitted: list[Fitted], sse0_bal_blocks: np.ndarray, n_tests: int, alpha: float,
-                        min_share: float, draws: int, seed: int) -> dict[str, float]:
+def bootstrap_inclusion(fitted: list[Fitted], n_blocks: int, n_tests: int, level: float, draws: int,
+                        seed: int) -> dict[str, float]:
     """Share of block-bootstrap resamples (condition blocks drawn with replacement) in which each fitted
     mechanism is the one named (the largest balanced gain, or the simplest tied with it, :func:`_simplest`)
-    among those passing the same share and likelihood-ratio tests as the selection."""
+    among those whose whitened likelihood ratio on the resample passes ``level``/``n_tests`` and that lower the
+    balanced misfit."""
     rng = np.random.default_rng(seed)
-    nb = len(sse0_bal_blocks)
     raw = np.stack([f.block_raw for f in fitted])
     bal = np.stack([f.block_bal for f in fitted])
     wins: dict[str, int] = {}
     for _ in range(draws):
-        pick = rng.integers(0, nb, nb)
+        pick = rng.integers(0, n_blocks, n_blocks)
         g = bal[:, pick].sum(axis=1)
-        ok = [i for i, f in enumerate(fitted) if g[i] > min_share * sse0_bal_blocks[pick].sum()
-              and stats.chi2.sf(max(float(raw[i, pick].sum()), 0.0), f.dof) < alpha / n_tests]
+        ok = [i for i, f in enumerate(fitted) if g[i] > 0
+              and stats.chi2.sf(max(float(raw[i, pick].sum()), 0.0), f.dof) < level / n_tests]
         best = int(np.argmax(g))
         if best not in ok:
             continue
-        f = fitted[_simplest(fitted, g, raw[:, pick], bal[:, pick], best, ok, alpha)]
+        f = fitted[_simplest(fitted, g, raw[:, pick], bal[:, pick], best, ok, level)]
         wins[f.candidate.mechanism] = wins.get(f.candidate.mechanism, 0) + 1
     return {m: w / draws for m, w in wins.items()}
