@@ -3,9 +3,6 @@ input, the pipeline and ensemble models (streaming, storing), and the verb end t
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 
 import mlflow
 import numpy as np
@@ -20,7 +17,6 @@ from thermodrift.core.components import ThermalModel
 from thermodrift.core.study import JobSpec, model_inputs
 from thermodrift.testing.data import tiny_recording
 
-EXE = [sys.executable, "-m", "thermodrift.core.cli"]
 FEATURES = {"taus_s": [600.0, 3000.0], "powers": [1.0, 2.0]}
 
 
@@ -165,32 +161,26 @@ def test_exported_pipeline_and_ensemble_stream_as_the_compensator_runs_them():
         assert np.abs(out - model.predict(X.iloc[200:240], history=X.iloc[:200])).max() < 1e-9
 
 
-def _cli(cwd, *args, timeout=600):
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
-
-
 TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
         "progress=false"]
 
 
-def test_bad_input_is_one_line_and_exit_2(tmp_path):
+def test_bad_input_is_one_line_and_exit_2(tmp_path, cli):
     tiny_recording().write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    typo = _cli(tmp_path, "automl", *TINY, "automl.budget_fit=3")
+    typo = cli(tmp_path, "automl", *TINY, "automl.budget_fit=3")
     assert typo.returncode == 2 and "did you mean 'automl.budget_fits'" in typo.stderr
-    unknown = _cli(tmp_path, "automl", *TINY, "automl.families=[no_such_model]")
+    unknown = cli(tmp_path, "automl", *TINY, "automl.families=[no_such_model]")
     lines = [ln for ln in unknown.stderr.splitlines() if ln.strip()]
     assert unknown.returncode == 2 and len(lines) == 1 and "no_such_model" in lines[0], unknown.stderr
     assert "Traceback" not in typo.stderr + unknown.stderr
-    helped = _cli(tmp_path, "automl", "--help")
+    helped = cli(tmp_path, "automl", "--help")
     assert helped.returncode == 0 and "budget_fits" in helped.stdout
 
 
-def test_verb_logs_a_parent_run_with_leaderboard_and_family_children(tmp_path):
+def test_verb_logs_a_parent_run_with_leaderboard_and_family_children(tmp_path, cli):
     tiny_recording().write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    out = _cli(tmp_path, "automl", *TINY, "automl.budget_fits=8", "automl.max_folds=2",
-               "automl.families=[mlr,ridge_demo]")
+    out = cli(tmp_path, "automl", *TINY, "automl.budget_fits=8", "automl.max_folds=2",
+              "automl.families=[mlr,ridge_demo]")
     assert out.returncode == 0, out.stderr[-2000:]
     mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
     runs = mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")

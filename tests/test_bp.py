@@ -1,16 +1,14 @@
 """Model ``bp``: learns a nonlinear thermal relation, is reproducible, pickles, clones, matches its YAML."""
 
-import importlib.resources
 import pickle
 
 import numpy as np
 import optuna
 import pandas as pd
 import pytest
-import yaml
 from sklearn.base import clone
 
-from thermodrift.core import registry
+from thermodrift.core import configs, registry
 from thermodrift.core.search_space import distributions
 from thermodrift.core.training import DivergedError, reporting
 from thermodrift.plugins.models.bp import BPNetwork
@@ -111,9 +109,9 @@ def test_test_params_fit_fast_with_two_outputs(params):
     assert model.train_report_.epochs_run == params["trainer"]["epochs"]
 
 
-def test_registered_and_yaml_mirrors_class_defaults():
+def test_registered_and_config_mirrors_class_defaults():
     assert isinstance(registry.load().create("model", "bp", hidden_units=5), BPNetwork)
-    conf = yaml.safe_load((importlib.resources.files("thermodrift.conf.model") / "bp.yaml").read_text())
+    conf = configs.node(registry.get("model", "bp"))  # the config `thermodrift run model=bp` composes
     assert conf["name"] == "bp"
     # random_state is left out so that the run's `seed` reaches the model; the trainer block lists every field
     assert "random_state" not in conf["params"]

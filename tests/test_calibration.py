@@ -1,10 +1,6 @@
 """Calibration: known parameters inside their intervals, unidentifiable ones named, the auto baseline, the CLI."""
 
 import json
-import os
-import subprocess
-import sys
-
 from pathlib import Path
 
 import numpy as np
@@ -171,16 +167,13 @@ def test_auto_network_reaches_the_noise_floor_when_nothing_is_missing():
         assert lo is not None and hi is not None and lo <= result.linear["dz"][name] <= hi
 
 
-def test_calibrate_cli_auto_writes_every_output(tmp_path):
+def test_calibrate_cli_auto_writes_every_output(tmp_path, cli):
     _, rec = _auto_truth_recording()
     table, manifest = tmp_path / "rec.csv", tmp_path / "rec.manifest.yaml"
     rec.write(table, manifest)
     out = tmp_path / "cal"
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    proc = subprocess.run([sys.executable, "-m", "thermodrift.core.cli", "calibrate", str(table), "--manifest",
-                           str(manifest), "--network", "auto", "--hidden-nodes", "1", "--out", str(out),
-                           "--starts", "2", "--no-progress"], capture_output=True, text=True, env=env,
-                          timeout=300)
+    proc = cli(tmp_path, "calibrate", str(table), "--manifest", str(manifest), "--network", "auto", "--hidden-nodes",
+               "1", "--out", str(out), "--starts", "2", "--no-progress", timeout=300)
     assert proc.returncode == 0, proc.stderr
     for name in ("calibration.json", "calibrated_network.yaml", "mismatch.json", "mismatch_heatmap.png",
                  "before_after.png"):
@@ -193,9 +186,8 @@ def test_calibrate_cli_auto_writes_every_output(tmp_path):
     assert "top mismatch windows" in proc.stdout
     calibrated = physics.load_network(str(out / "calibrated_network.yaml"))
     assert calibrated.output("dz").sensitivity_um_K  # the estimated map is written into the spec
-    bad = subprocess.run([sys.executable, "-m", "thermodrift.core.cli", "calibrate", str(table), "--manifest",
-                          str(manifest), "--targets", "T1", "--out", str(out)], capture_output=True, text=True,
-                         env=env, timeout=120)
+    bad = cli(tmp_path, "calibrate", str(table), "--manifest", str(manifest), "--targets", "T1", "--out", str(out),
+              timeout=120)
     assert bad.returncode == 2 and "not displacement channels" in bad.stderr
 
 

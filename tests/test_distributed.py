@@ -18,19 +18,12 @@ import pytest
 
 from thermodrift.testing.data import tiny_recording
 
-EXE = [sys.executable, "-m", "thermodrift.core.cli", "run"]
 TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
         "progress=false"]
 
 
-def _env() -> dict:
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    return env
-
-
-def _start(cwd, args):
-    return subprocess.Popen([*EXE, *TINY, *args], cwd=cwd, env=_env(), stdout=subprocess.DEVNULL,
+def _start(cli, cwd, args):
+    return subprocess.Popen([*cli.exe, "run", *TINY, *args], cwd=cwd, env=cli.env(), stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 
@@ -44,9 +37,9 @@ def _logged_complete(cwd) -> set[int]:
     return numbers
 
 
-def test_four_runs_started_together_on_a_new_sqlite_study_all_succeed(tmp_path):
+def test_four_runs_started_together_on_a_new_sqlite_study_all_succeed(tmp_path, cli):
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    workers = [_start(tmp_path, ["model=mlr", "n_trials=12", "optimizer=random"]) for _ in range(4)]
+    workers = [_start(cli, tmp_path, ["model=mlr", "n_trials=12", "optimizer=random"]) for _ in range(4)]
     errors = [w.communicate(timeout=600)[1] for w in workers]
     assert [w.returncode for w in workers] == [0] * 4, "\n".join(e[-1500:] for e in errors)
     (summary,) = optuna.get_all_study_summaries(f"sqlite:///{tmp_path / 'thermodrift.optuna.db'}")
@@ -60,14 +53,14 @@ def test_four_runs_started_together_on_a_new_sqlite_study_all_succeed(tmp_path):
     assert sorted(r.info.status for r in runs) == ["FINISHED"] * 4
 
 
-def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tmp_path, postgres_url):
+def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tmp_path, postgres_url, cli):
     storage = postgres_url
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     # trials long enough (bp, 200 epochs) that the victim spends most of its time inside one, where it is killed
     args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random",
             f"optuna.storage={storage}", f"optuna.study_name={name}"]
-    workers = [_start(tmp_path, args) for _ in range(4)]
+    workers = [_start(cli, tmp_path, args) for _ in range(4)]
     victim, deadline = workers[0], time.time() + 300
     while time.time() < deadline and victim.poll() is None:
         try:
@@ -103,14 +96,13 @@ def _storage_url(kind, tmp_path, request) -> str:
 
 
 @pytest.mark.parametrize("kind", ["postgresql"])  # the cluster's storage; SQLite is the same code path in Optuna
-def test_a_submitit_grid_of_two_jobs_shares_one_study_and_loses_nothing(tmp_path, kind, request):
+def test_a_submitit_grid_of_two_jobs_shares_one_study_and_loses_nothing(tmp_path, kind, request, cli):
     pytest.importorskip("hydra_plugins.hydra_submitit_launcher", reason="pip install 'thermodrift[cluster]'")
     storage, name = _storage_url(kind, tmp_path, request), f"cluster-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     # +copy=1,2 only makes two copies of one job; submitit_local runs each in its own process.
-    out = subprocess.run([*EXE, "-m", "hydra/launcher=submitit_local", "+copy=1,2", *TINY, "model=mlr", "n_trials=10",
-                          "optimizer=pso", f"optuna.storage={storage}", f"optuna.study_name={name}"],
-                         cwd=tmp_path, env=_env(), capture_output=True, text=True, timeout=600)
+    out = cli(tmp_path, "run", "-m", "hydra/launcher=submitit_local", "+copy=1,2", *TINY, "model=mlr", "n_trials=10",
+              "optimizer=pso", f"optuna.storage={storage}", f"optuna.study_name={name}")
     assert out.returncode == 0, out.stderr[-2000:]
     (sweep,) = (tmp_path / "multirun").iterdir()
     assert len(list((sweep / ".submitit").glob("*/*_result.pkl"))) == 2  # two submitit jobs, each its own process
@@ -142,12 +134,12 @@ WORKER = textwrap.dedent("""
 
 @pytest.mark.parametrize("kind, optimizer", [("sqlite", "pso"), ("postgresql", "pso"), ("sqlite", "fa")])
 def test_four_processes_of_a_population_sampler_share_no_cell_and_repeat_no_parameters(tmp_path, kind, optimizer,
-                                                                                       request):
+                                                                                       request, cli):
     """PSO moves particles asynchronously, FA a generation at a time; both claim every (generation, slot)."""
     storage, name, budget = _storage_url(kind, tmp_path, request), f"cells-{uuid.uuid4().hex}", 100
     optuna.create_study(study_name=name, storage=storage)
     workers = [subprocess.Popen([sys.executable, "-c", WORKER, storage, name, optimizer, str(budget)],
-                                env=_env(), stderr=subprocess.PIPE, text=True) for _ in range(4)]
+                                env=cli.env(), stderr=subprocess.PIPE, text=True) for _ in range(4)]
     errors = [w.communicate(timeout=600)[1] for w in workers]
     assert [w.returncode for w in workers] == [0] * 4, "\n".join(e[-1500:] for e in errors)
     study = optuna.load_study(study_name=name, storage=storage)

@@ -1,9 +1,6 @@
 """`thermodrift export` on a real logged run, then `thermodrift compensate` as a controller-side user runs it."""
 
 import json
-import os
-import subprocess
-import sys
 
 import mlflow
 import mlflow.pyfunc
@@ -13,28 +10,21 @@ import pytest
 
 from thermodrift.testing.data import tiny_recording
 
-EXE = [sys.executable, "-m", "thermodrift.core.cli"]
 pytestmark = pytest.mark.slow  # one real `thermodrift run` (~40 s on a busy runner) shared by the module
 
 
-def thermodrift(cwd, *args, stdin=None):
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=600, env=env, input=stdin)
-
-
 @pytest.fixture(scope="module")
-def exported(tmp_path_factory):
+def exported(tmp_path_factory, cli):
     """A tiny untuned transfer_function run (filters: a model with state), exported."""
     cwd = tmp_path_factory.mktemp("run")
     tiny_recording(seed=0).write(cwd / "tiny.csv", cwd / "tiny.yaml")
-    out = thermodrift(cwd, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
-                      "dataset.params.manifest=tiny.yaml", "progress=false", "model=transfer_function",
-                      "n_trials=0", "selector=all")
+    out = cli(cwd, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
+              "dataset.params.manifest=tiny.yaml", "progress=false", "model=transfer_function",
+              "n_trials=0", "selector=all")
     assert out.returncode == 0, out.stderr[-2000:]
     run_id = out.stdout.split("MLflow run ")[1].split()[0]
     assert f"MLflow run {run_id} at sqlite:///mlflow.db" in out.stdout
-    out = thermodrift(cwd, "export", run_id, "--out", "pkg")
+    out = cli(cwd, "export", run_id, "--out", "pkg")
     assert out.returncode == 0, out.stderr[-2000:]
     return cwd, run_id
 
@@ -56,10 +46,10 @@ def test_export_logs_the_package_and_the_model_still_loads(exported):
     assert model.predict(X).shape == (len(X), 2)
 
 
-def test_no_limits_replay_equals_predict_with_history_and_stdin_streams(exported):
+def test_no_limits_replay_equals_predict_with_history_and_stdin_streams(exported, cli):
     cwd, run_id = exported
-    out = thermodrift(cwd, "compensate", "pkg", "--input", "tiny.csv", "--manifest", "tiny.yaml", "--out", "v.csv",
-                      "--no-limits")
+    out = cli(cwd, "compensate", "pkg", "--input", "tiny.csv", "--manifest", "tiny.yaml", "--out", "v.csv",
+              "--no-limits")
     assert out.returncode == 0, out.stderr[-2000:]
     values = pd.read_csv(cwd / "v.csv")
     assert list(values.columns[:4]) == ["time_s", "disp_z_um_um", "disp_z_um_raw_um", "disp_z_um_status"]
@@ -71,18 +61,18 @@ def test_no_limits_replay_equals_predict_with_history_and_stdin_streams(exported
     X.attrs["roles"] = {c: rec.channels[c].role for c in X.columns}
     expected = model.predict(X)  # the whole recording from its first row: history empty
     assert np.abs(values[["disp_z_um_um", "disp_x_um_um"]].to_numpy() - expected).max() <= 1e-9
-    piped = thermodrift(cwd, "compensate", "pkg", "--input", "-", "--manifest", "tiny.yaml", "--out", "-",
-                        "--no-limits", stdin=(cwd / "tiny.csv").read_text())
+    piped = cli(cwd, "compensate", "pkg", "--input", "-", "--manifest", "tiny.yaml", "--out", "-",
+                "--no-limits", stdin=(cwd / "tiny.csv").read_text())
     assert piped.returncode == 0 and piped.stdout.replace("\r\n", "\n") == (cwd / "v.csv").read_text()
 
 
-def test_an_empty_cell_is_a_fault_of_its_row_not_a_stop(exported):
+def test_an_empty_cell_is_a_fault_of_its_row_not_a_stop(exported, cli):
     cwd, _ = exported
     table = pd.read_csv(cwd / "tiny.csv")
     table.loc[20, "T_column"] = np.nan
     table.to_csv(cwd / "holes.csv", index=False)
-    out = thermodrift(cwd, "compensate", "pkg", "--input", "holes.csv", "--manifest", "tiny.yaml", "--out",
-                      "h.csv", "--audit", "a.jsonl", "--cnc", "fanuc")
+    out = cli(cwd, "compensate", "pkg", "--input", "holes.csv", "--manifest", "tiny.yaml", "--out",
+              "h.csv", "--audit", "a.jsonl", "--cnc", "fanuc")
     assert out.returncode == 0, out.stderr[-2000:]
     values = pd.read_csv(cwd / "h.csv")
     assert len(values) >= len(table) and values.loc[20, "disp_z_um_status"] == "fallback"
@@ -98,7 +88,7 @@ def test_an_empty_cell_is_a_fault_of_its_row_not_a_stop(exported):
     ("bad_package", "not a usable compensator package"),
     ("unknown_run", "no MLflow run"),
 ])
-def test_bad_input_is_one_line_and_exit_2(exported, change, needle):
+def test_bad_input_is_one_line_and_exit_2(exported, change, needle, cli):
     cwd, _ = exported
     table, manifest, package = "tiny.csv", "tiny.yaml", "pkg"
     text = (cwd / "tiny.yaml").read_text()
@@ -115,8 +105,8 @@ def test_bad_input_is_one_line_and_exit_2(exported, change, needle):
     elif change == "bad_package":
         package = "tiny.yaml"
     if change == "unknown_run":
-        out = thermodrift(cwd, "export", "0123456789abcdef", "--out", "x")
+        out = cli(cwd, "export", "0123456789abcdef", "--out", "x")
     else:
-        out = thermodrift(cwd, "compensate", package, "--input", table, "--manifest", manifest, "--out", "o.csv")
+        out = cli(cwd, "compensate", package, "--input", table, "--manifest", manifest, "--out", "o.csv")
     assert out.returncode == 2 and needle in out.stderr
     assert len(out.stderr.strip().splitlines()) == 1 and "Traceback" not in out.stderr

@@ -8,17 +8,13 @@ import os
 import signal
 import sqlite3
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import mlflow
 import pytest
 
-from thermodrift.testing.data import tiny_recording
-
-EXE = [sys.executable, "-m", "thermodrift.core.cli", "run"]
-ARGS = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
+ARGS = ["run", "dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
         "progress=false", "model=bp", "model.params.trainer.epochs=30", "optimizer=random"]
 
 
@@ -41,12 +37,10 @@ def _run_states(cwd: Path) -> list[tuple[str, dict]]:
                                                                       output_format="list")]
 
 
-def _kill_mid_trial(cwd: Path, n_trials: int) -> None:
+def _kill_mid_trial(cli, cwd: Path, n_trials: int) -> None:
     """Start the job and SIGKILL its process group once a trial completed and the next one is RUNNING."""
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    proc = subprocess.Popen([*EXE, *ARGS, f"n_trials={n_trials}"], cwd=cwd, env=env, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+    proc = subprocess.Popen([*cli.exe, *ARGS, f"n_trials={n_trials}"], cwd=cwd, env=cli.env(),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     db, deadline = cwd / "thermodrift.optuna.db", time.time() + 240
     while time.time() < deadline and proc.poll() is None:
         states = _states(db)
@@ -60,25 +54,21 @@ def _kill_mid_trial(cwd: Path, n_trials: int) -> None:
 
 
 @pytest.mark.parametrize("resume_trials", [3, 1], ids=["trials_left", "budget_already_met"])
-def test_resume_after_sigkill_leaves_nothing_running(tmp_path, resume_trials):
-    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    _kill_mid_trial(tmp_path, 3)
-    (killed_run,) = [tags for status, tags in _run_states(tmp_path) if status == "RUNNING"]
-    complete_before = _states(tmp_path / "thermodrift.optuna.db")["COMPLETE"]
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    out = subprocess.run([*EXE, *ARGS, f"n_trials={resume_trials}"], cwd=tmp_path, env=env, capture_output=True,
-                         text=True, timeout=300)
+def test_resume_after_sigkill_leaves_nothing_running(workdir, resume_trials, cli):
+    _kill_mid_trial(cli, workdir, 3)
+    (killed_run,) = [tags for status, tags in _run_states(workdir) if status == "RUNNING"]
+    complete_before = _states(workdir / "thermodrift.optuna.db")["COMPLETE"]
+    out = cli(workdir, *ARGS, f"n_trials={resume_trials}", timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
-    states = _states(tmp_path / "thermodrift.optuna.db")
+    states = _states(workdir / "thermodrift.optuna.db")
     assert states.get("RUNNING", 0) == 0 and states["FAIL"] == 1
     assert states["COMPLETE"] == max(resume_trials, complete_before)  # the killed trial took no budget
-    runs = _run_states(tmp_path)
+    runs = _run_states(workdir)
     assert [status for status, _ in runs].count("RUNNING") == 0
     (killed,) = [tags for status, tags in runs if status == "KILLED"]
     (resumed,) = [tags for status, tags in runs if status == "FINISHED"]
     assert killed["worker"] == killed_run["worker"] and "died" in killed["error"]
-    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'mlflow.db'}")
+    mlflow.set_tracking_uri(f"sqlite:///{workdir / 'mlflow.db'}")
     killed_id = [r.info.run_id for r in mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
                  if r.info.status == "KILLED"][0]
     assert resumed["resumes"] == killed_id

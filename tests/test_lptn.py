@@ -1,14 +1,12 @@
 """Models ``lptn`` and ``lptn_hybrid``: shapes, continuation of the physics, the hybrid's correction, configs."""
 
-import importlib.resources
 import pickle
 
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 
-from thermodrift.core import physics, registry
+from thermodrift.core import configs, physics, registry
 from thermodrift.core.physics import scenarios
 from thermodrift.core.physics.calibration import StateObserver
 from thermodrift.core.physics.scenarios import Block
@@ -132,7 +130,7 @@ def test_registered_with_configs_and_search_spaces():
     assert {"lptn", "lptn_hybrid"} <= set(names)
     for name, cls in (("lptn", LPTN), ("lptn_hybrid", LPTNHybrid)):
         assert cls.extra_input_roles == ("temperature", "speed", "ambient")
-        conf = yaml.safe_load((importlib.resources.files("thermodrift.conf.model") / f"{name}.yaml").read_text())
+        conf = configs.node(registry.get("model", name))  # the config `thermodrift run model=<name>` composes
         assert conf["name"] == name
         model = registry.create("model", name, **conf["params"])
         assert isinstance(model, cls)

@@ -67,7 +67,7 @@ def test_no_test_row_reaches_selection_tuning_or_refit(reg, case):
     kind, params = case.split("/")[0], HONEST[case]
     spec = JobSpec(dataset="tiny", model="recording_mlr", selector="recording_top_k", optimizer="random",
                    split=kind, split_params=params, n_trials=3, storage=None, progress=False,
-                   selector_search_space={})  # one selection per fold; joint tuning: tests/test_s1s2_history.py
+                   selector_search_space={})  # one selection per fold; joint tuning: tests/test_model_history.py
     CALLS.clear()
     result = Job(spec).run(rec)
     folds = splits.make_split(kind, **params).folds(rec)

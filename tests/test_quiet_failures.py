@@ -2,8 +2,6 @@
 
 import logging
 import os
-import subprocess
-import sys
 
 import optuna
 import pytest
@@ -11,7 +9,6 @@ import pytest
 from thermodrift.core import trial_faults
 from thermodrift.testing.data import tiny_recording
 
-EXE = [sys.executable, "-m", "thermodrift.core.cli"]
 FAULTS = {"import_error": "import no_such_module_anywhere", "system_exit": "import sys\nsys.exit('bye from plugin')",
           "runtime_error": "raise RuntimeError('plugin init broke')"}
 
@@ -31,20 +28,17 @@ def broken_site(tmp_path):
     site.mkdir()
     for name, body in FAULTS.items():
         _fake_distribution(site, name, body)
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true",
-           "PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
+    env = {"PYTHONPATH": os.pathsep.join([str(site), os.environ.get("PYTHONPATH", "")])}
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     return tmp_path, env
 
 
-def test_broken_plugins_are_named_by_plugins_and_run_and_the_rest_works(broken_site):
+def test_broken_plugins_are_named_by_plugins_and_run_and_the_rest_works(broken_site, cli):
     cwd, env = broken_site
-    listing = subprocess.run([*EXE, "plugins"], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+    listing = cli(cwd, "plugins", env=env, timeout=300)
     assert listing.returncode == 0, listing.stderr
-    out = subprocess.run([*EXE, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
-                          "dataset.params.manifest=tiny.yaml", "progress=false", "model=mlr", "n_trials=2"],
-                         cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+    out = cli(cwd, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
+              "dataset.params.manifest=tiny.yaml", "progress=false", "model=mlr", "n_trials=2", env=env, timeout=300)
     assert out.returncode == 0, out.stderr[-3000:]
     warnings = [ln for ln in out.stderr.splitlines() if ln.startswith("thermodrift: warning: plugin")]
     for name in FAULTS:

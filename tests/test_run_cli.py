@@ -6,29 +6,13 @@ import re
 import signal
 import sqlite3
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import mlflow
 import mlflow.pyfunc
-import pytest
 
 from thermodrift.testing.data import tiny_recording
-
-EXE = [sys.executable, "-m", "thermodrift.core.cli"]
-
-
-@pytest.fixture()
-def workdir(tmp_path):
-    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    return tmp_path
-
-
-def thermodrift(cwd: Path, *args: str, timeout: float = 300, env: dict | None = None) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true", **(env or {})}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout, env=env)
 
 
 TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
@@ -40,9 +24,9 @@ def runs(cwd: Path):
     return mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
 
 
-def test_main_job_on_embedded_defaults(tmp_path):
+def test_main_job_on_embedded_defaults(tmp_path, cli):
     """The README's main job: no arguments, the built-in dataset, SQLite for Optuna and MLflow."""
-    out = thermodrift(tmp_path, "run")
+    out = cli(tmp_path, "run")
     assert out.returncode == 0, out.stderr[-2000:]
     assert (tmp_path / "mlflow.db").exists() and (tmp_path / "thermodrift.optuna.db").exists()
     (run,) = runs(tmp_path)
@@ -52,8 +36,8 @@ def test_main_job_on_embedded_defaults(tmp_path):
     assert run.data.tags["dataset"] == "demo_spindle" and m["study/n_trials"] == 20
 
 
-def test_single_run_logs_held_out_metrics_and_baselines(workdir):
-    out = thermodrift(workdir, "run", *TINY, "n_trials=4", "seed=3")
+def test_single_run_logs_held_out_metrics_and_baselines(workdir, cli):
+    out = cli(workdir, "run", *TINY, "n_trials=4", "seed=3")
     assert out.returncode == 0, out.stderr[-2000:]
     assert "persistence" in out.stdout and "mlr" in out.stdout
     (run,) = runs(workdir)
@@ -81,28 +65,9 @@ def test_single_run_logs_held_out_metrics_and_baselines(workdir):
     assert f"MLflow run {run.info.run_id} at sqlite:///mlflow.db" in log.read_text(encoding="utf-8")
 
 
-def test_grid_output_in_a_file_is_clean_and_names_its_sweep_and_report(workdir):
-    env = {"MPLCONFIGDIR": str(workdir / "mpl")}  # an empty matplotlib cache: its font scan logs INFO lines
-    out = thermodrift(workdir, "run", "-m", "model=mlr,persistence", *TINY, "progress=true", "n_trials=2", env=env)
-    assert out.returncode == 0, out.stderr[-2000:]
-    text = out.stdout + out.stderr
-    assert "\r" not in text and "fontManager" not in text and "matplotlib" not in text
-    progress = [ln for ln in out.stderr.splitlines() if " trials finished" in ln]
-    assert progress and all(re.fullmatch(r"\S+: \d+ of 2 trials finished, best inner validation RMSE [\d.]+ µm", ln)
-                            for ln in progress)
-    assert all(ln.startswith(("[", "recording_file-")) for ln in out.stderr.splitlines())  # Hydra's or progress
-    (sweep,) = [p.name for p in (workdir / "multirun").iterdir()]
-    assert f"sweep {sweep}: job folders in multirun/{sweep}" in out.stdout
-    (where,) = re.findall(r"logged on the parent run: file://(\S+)", out.stdout)
-    assert (Path(where) / "report.md").is_file() and f"thermodrift report {sweep}" in out.stdout
-    children = [r for r in runs(workdir) if "mlflow.parentRunId" in r.data.tags]
-    logs = [(workdir / "multirun" / sweep / str(i) / "run.log").read_text(encoding="utf-8") for i in range(2)]
-    assert sorted(c.info.run_id for c in children) == sorted(re.search(r"MLflow run (\w+) at", t)[1] for t in logs)
-
-
-def test_parallel_grid_makes_one_parent_and_tagged_children(workdir):
-    out = thermodrift(workdir, "run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
-                      "model=mlr,persistence", "split=chronological,condition_holdout", *TINY, "n_trials=2")
+def test_parallel_grid_makes_one_parent_and_tagged_children(workdir, cli):
+    out = cli(workdir, "run", "-m", "hydra/launcher=joblib", "hydra.launcher.n_jobs=2",
+              "model=mlr,persistence", "split=chronological,condition_holdout", *TINY, "n_trials=2")
     assert out.returncode == 0, out.stderr[-2000:]
     all_runs = runs(workdir)
     parents = [r for r in all_runs if r.data.tags.get("kind") == "sweep"]
@@ -132,10 +97,10 @@ def test_parallel_grid_makes_one_parent_and_tagged_children(workdir):
     assert parent.data.params["model.name"] == best.data.tags["model"]
 
 
-def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdir):
-    first = thermodrift(workdir, "run", *TINY, "n_trials=2")
+def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdir, cli):
+    first = cli(workdir, "run", *TINY, "n_trials=2")
     assert first.returncode == 0 and " resumed: " not in first.stdout, first.stderr[-2000:]
-    second = thermodrift(workdir, "run", *TINY, "n_trials=2")
+    second = cli(workdir, "run", *TINY, "n_trials=2")
     assert second.returncode == 0, second.stderr[-2000:]
     (line,) = [ln for ln in second.stdout.splitlines() if " resumed: " in ln]
     assert line.startswith("study recording_file-") and line.endswith("resumed: 2 of 2 trials complete, 0 to run")
@@ -144,8 +109,8 @@ def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdi
     assert sorted(h.step for h in history) == [0, 1]
 
 
-def test_untuned_job_output_names_targets_references_and_figures(workdir):
-    out = thermodrift(workdir, "run", *TINY, "n_trials=0")
+def test_untuned_job_output_names_targets_references_and_figures(workdir, cli):
+    out = cli(workdir, "run", *TINY, "n_trials=0")
     assert out.returncode == 0, out.stderr[-2000:]
     text = out.stdout
     assert "targets (µm): disp_z_um, disp_x_um" in text and "untuned (n_trials=0)" in text
@@ -162,31 +127,31 @@ def test_untuned_job_output_names_targets_references_and_figures(workdir):
     assert inp.dataset.name == "tiny.csv" and "tiny" in inp.dataset.source
 
 
-def test_bad_input_is_one_line_and_exit_2(workdir):
-    wrong_group = thermodrift(workdir, "run", *TINY, "model=no_such_model")
+def test_bad_input_is_one_line_and_exit_2(workdir, cli):
+    wrong_group = cli(workdir, "run", *TINY, "model=no_such_model")
     assert wrong_group.returncode == 2
     assert "Traceback" not in wrong_group.stderr
-    missing = thermodrift(workdir, "run", "dataset=recording_file", "dataset.params.table=nope.csv",
-                          "dataset.params.manifest=tiny.yaml")
+    missing = cli(workdir, "run", "dataset=recording_file", "dataset.params.table=nope.csv",
+                  "dataset.params.manifest=tiny.yaml")
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
     lines = [ln for ln in missing.stderr.splitlines() if ln.startswith("thermodrift: error:")]
     assert len(lines) == 1 and "nope.csv" in lines[0]
-    bad_target = thermodrift(workdir, "run", *TINY, "targets=[T_column]")
+    bad_target = cli(workdir, "run", *TINY, "targets=[T_column]")
     assert bad_target.returncode == 2 and "T_column" in bad_target.stderr and "Traceback" not in bad_target.stderr
 
 
-def test_missing_recording_file_and_verb_errors_are_one_clean_line(workdir):
-    out = thermodrift(workdir, "run", "dataset=recording_file")
+def test_missing_recording_file_and_verb_errors_are_one_clean_line(workdir, cli):
+    out = cli(workdir, "run", "dataset=recording_file")
     assert out.returncode == 2 and "???" not in out.stderr and "--manifest" not in out.stderr
     assert out.stderr.strip().splitlines() == [
         "thermodrift: error: dataset.params.table, dataset.params.manifest have no value: add "
         "dataset.params.table=<value> dataset.params.manifest=<value> to the command"]
-    no_manifest = thermodrift(workdir, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
-                              "dataset.params.manifest=nope.yaml")
+    no_manifest = cli(workdir, "run", "dataset=recording_file", "dataset.params.table=tiny.csv",
+                      "dataset.params.manifest=nope.yaml")
     assert no_manifest.returncode == 2 and "nope.yaml" in no_manifest.stderr
     assert "--manifest" not in no_manifest.stderr
     for verb in (["simulate", "--hours", "-1", "--out", "sim"], ["calibrate", "tiny.csv", "--manifest", "nope.yaml"]):
-        out = thermodrift(workdir, *verb)
+        out = cli(workdir, *verb)
         # a terminal shows each \r- or \n-separated piece from the line start: the error has a piece to itself
         pieces = [p.strip() for p in re.split(r"[\r\n]", out.stderr) if p.strip()]
         assert out.returncode == 2 and pieces[-1].startswith("thermodrift: error:"), (verb, out.stderr)
@@ -204,11 +169,10 @@ def _complete_trials(db: Path) -> list[tuple[int, float]]:
         return []
 
 
-def test_killed_study_resumes_and_keeps_completed_trials(workdir):
-    args = [*EXE, "run", *TINY, "model=bp", "model.params.trainer.epochs=60", "n_trials=8", "optimizer=random"]
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    proc = subprocess.Popen(args, cwd=workdir, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
+def test_killed_study_resumes_and_keeps_completed_trials(workdir, cli):
+    args = ["run", *TINY, "model=bp", "model.params.trainer.epochs=60", "n_trials=8", "optimizer=random"]
+    proc = subprocess.Popen([*cli.exe, *args], cwd=workdir, env=cli.env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, start_new_session=True)
     db = workdir / "thermodrift.optuna.db"
     deadline = time.time() + 240
     while len(_complete_trials(db)) < 2 and time.time() < deadline and proc.poll() is None:
@@ -217,7 +181,7 @@ def test_killed_study_resumes_and_keeps_completed_trials(workdir):
     proc.wait()
     before = _complete_trials(db)
     assert 2 <= len(before) < 8, f"kill came too late or too early: {len(before)} complete trials"
-    out = thermodrift(workdir, "run", *[a for a in args[len(EXE) + 1:]])
+    out = cli(workdir, *args)
     assert out.returncode == 0, out.stderr[-2000:]
     after = _complete_trials(db)
     assert set(before) <= set(after), "completed trials were lost or changed"
@@ -226,8 +190,8 @@ def test_killed_study_resumes_and_keeps_completed_trials(workdir):
     assert run.data.metrics["study/n_trials"] >= 8
 
 
-def test_plugins_json_lists_components_with_origins(workdir):
-    out = thermodrift(workdir, "plugins", "--json")
+def test_plugins_json_lists_components_with_origins(workdir, cli):
+    out = cli(workdir, "plugins", "--json")
     assert out.returncode == 0, out.stderr
     listing = json.loads(out.stdout)["components"]
     assert len(listing["selector"]) >= 3 and len(listing["model"]) >= 2 and len(listing["optimizer"]) >= 4
@@ -235,9 +199,9 @@ def test_plugins_json_lists_components_with_origins(workdir):
     assert builtin["tpe"] == "thermodrift" and builtin["random"] == "thermodrift"
 
 
-def test_every_verb_has_help(workdir):
+def test_every_verb_has_help(workdir, cli):
     for verb in ("plugins", "validate", "simulate", "calibrate", "bench"):
-        out = thermodrift(workdir, verb, "--help")
+        out = cli(workdir, verb, "--help")
         assert out.returncode == 0 and "usage:" in out.stdout, (verb, out.stderr[-500:])
-    out = thermodrift(workdir, "run", "--help")
+    out = cli(workdir, "run", "--help")
     assert out.returncode == 0 and "model" in out.stdout

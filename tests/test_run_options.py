@@ -3,7 +3,6 @@ with the closest right name; `thermodrift plugins` as a table with a description
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 
@@ -13,15 +12,8 @@ from thermodrift.core import registry
 from thermodrift.core.cli import run_options
 from thermodrift.core.errors import InputError
 
-EXE = [sys.executable, "-m", "thermodrift.core.cli"]
 
-
-def _thermodrift(cwd, *args):
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    return subprocess.run([*EXE, *args], cwd=cwd, capture_output=True, text=True, timeout=300, env=env)
-
-
-def test_help_lists_every_groups_options_from_the_registry_and_the_keys_with_meaning(tmp_path):
+def test_help_lists_every_groups_options_from_the_registry_and_the_keys_with_meaning(tmp_path, cli):
     reg = registry.default()
     reg_extra = registry.Registry(searchpaths=list(reg.searchpaths))
     reg_extra.components = {k: dict(v) for k, v in reg.components.items()}
@@ -38,7 +30,7 @@ def test_help_lists_every_groups_options_from_the_registry_and_the_keys_with_mea
     assert "(µm)" in next(ln for ln in text.splitlines() if ln.strip().startswith("targets "))
     assert "examples:" in text and "thermodrift run -m" in text
 
-    proc = _thermodrift(tmp_path, "run", "--help")
+    proc = cli(tmp_path, "run", "--help")
     assert proc.returncode == 0 and proc.stdout.startswith("usage: thermodrift run") and "Hydra" not in proc.stdout[:200]
 
 
@@ -69,14 +61,14 @@ def test_valid_overrides_pass(overrides):
     run_options.check_overrides(overrides, registry.default())
 
 
-def test_the_cli_exits_2_with_one_line(tmp_path):
-    proc = _thermodrift(tmp_path, "run", "model=mrl")
+def test_the_cli_exits_2_with_one_line(tmp_path, cli):
+    proc = cli(tmp_path, "run", "model=mrl")
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr.count("\n") == 1 and "did you mean 'mlr'?" in proc.stderr and "options: bp" in proc.stderr
 
 
-def test_plugins_prints_a_table_with_headers_and_a_description_per_component(tmp_path):
-    proc = _thermodrift(tmp_path, "plugins")
+def test_plugins_prints_a_table_with_headers_and_a_description_per_component(tmp_path, cli):
+    proc = cli(tmp_path, "plugins")
     assert proc.returncode == 0, proc.stderr
     lines = [ln for ln in proc.stdout.splitlines() if ln.strip()]
     assert lines[0].split() == ["KIND", "NAME", "ORIGIN", "DESCRIPTION"]
@@ -95,8 +87,8 @@ HEAVY = ("torch", "mlflow", "hydra", "optuna", "sklearn", "pandas", "thermodrift
 
 @pytest.mark.parametrize("argv,message", [(["run", "model=mrl"], "(did you mean 'mlr'?)"),
                                           (["run", "-m", "n_trial=5"], "(did you mean 'n_trials'?)")])
-def test_a_typo_is_answered_before_plugins_hydra_mlflow_or_torch_load(tmp_path, argv, message):
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true", "THERMODRIFT_CACHE_DIR": str(tmp_path / "cache")}
+def test_a_typo_is_answered_before_plugins_hydra_mlflow_or_torch_load(tmp_path, argv, message, cli):
+    env = cli.env(THERMODRIFT_CACHE_DIR=str(tmp_path / "cache"))
     # the first call after an install loads the plugins once and saves their listing (as `run --help` does)
     first = subprocess.run([sys.executable, "-c", PROBE.format(argv=argv, heavy=HEAVY)], capture_output=True,
                            text=True, timeout=300, env=env, cwd=tmp_path)
@@ -107,15 +99,15 @@ def test_a_typo_is_answered_before_plugins_hydra_mlflow_or_torch_load(tmp_path, 
     assert again.stderr.count("\n") == 1 and message in again.stderr
 
 
-def test_help_text_is_plain_and_complete(tmp_path):
+def test_help_text_is_plain_and_complete(tmp_path, cli):
     text = run_options.help_text(registry.default())
     keys = {k.path: k.doc for k in run_options.keys()}
     assert keys["search_space"].endswith("'search_space={alpha: {type: float, low: 0.01, high: 10, log: true}}'")
     assert "0 = untuned" in keys["n_trials"]  # a comment continued on the next line is part of the key's
     assert "(nothing to tune) or\n" not in text and "log: true}}'" in text
     assert all(len(line) <= 110 for line in text.splitlines() if not line.startswith("warning:"))
-    top = _thermodrift(tmp_path, "--help")
-    plugins = _thermodrift(tmp_path, "plugins")
+    top = cli(tmp_path, "--help")
+    plugins = cli(tmp_path, "plugins")
     for out in (text, top.stdout, plugins.stdout):
         assert "``" not in out and ":class:`" not in out and ":func:`" not in out and ":mod:`" not in out
     assert "The thermodrift command line" in top.stdout

@@ -7,31 +7,19 @@ Needs ``pip install --no-deps ./tests/thirdparty_plugin`` in the environment (CI
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
-from pathlib import Path
 
 from mlflow.tracking import MlflowClient
 
 from thermodrift.testing import tiny_recording
 from thermodrift.testing.pytest_components import ModelTests, OptimizerTests, SelectorTests
 
-THERMODRIFT = [sys.executable, "-m", "thermodrift.core.cli"]
-
-
-def _thermodrift(*args: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    return subprocess.run([*THERMODRIFT, *args], cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
-
-
 PLUGIN = {"selector": ("variance_top_k", "thermodrift_example_plugin.selectors"),
           "model": ("ridge_demo", "thermodrift_example_plugin"),
           "optimizer": ("sobol_demo", "thermodrift_example_plugin.samplers")}
 
 
-def test_plugins_json_lists_each_component_with_its_distribution(tmp_path):
-    proc = _thermodrift("plugins", "--json", cwd=tmp_path)
+def test_plugins_json_lists_each_component_with_its_distribution(tmp_path, cli):
+    proc = cli(tmp_path, "plugins", "--json")
     assert proc.returncode == 0, proc.stderr
     listing = json.loads(proc.stdout)
     for kind, (name, module) in PLUGIN.items():
@@ -40,15 +28,15 @@ def test_plugins_json_lists_each_component_with_its_distribution(tmp_path):
     assert listing["searchpaths"] == [] and listing["failures"] == {}
 
 
-def test_run_selects_each_yamlless_plugin_component_by_name_and_tracks_it(tmp_path):
+def test_run_selects_each_yamlless_plugin_component_by_name_and_tracks_it(tmp_path, cli):
     tiny_recording().write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    proc = _thermodrift(
-        "run", "selector=variance_top_k", "selector.params.k=2", "model=ridge_demo", "optimizer=sobol_demo",
+    proc = cli(
+        tmp_path, "run", "selector=variance_top_k", "selector.params.k=2", "model=ridge_demo", "optimizer=sobol_demo",
         "n_trials=3", "progress=false",
         "dataset=recording_file", f"dataset.params.table={tmp_path / 'tiny.csv'}",
         f"dataset.params.manifest={tmp_path / 'tiny.yaml'}",
         f"tracking.uri=sqlite:///{tmp_path / 'mlflow.db'}", f"optuna.storage=sqlite:///{tmp_path / 'optuna.db'}",
-        f"hydra.run.dir={tmp_path / 'out'}", cwd=tmp_path)
+        f"hydra.run.dir={tmp_path / 'out'}")
     assert proc.returncode == 0, proc.stderr[-3000:]
 
     client = MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'mlflow.db'}")

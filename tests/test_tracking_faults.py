@@ -17,9 +17,6 @@ import urllib.request
 
 import pytest
 
-from thermodrift.testing.data import tiny_recording
-
-EXE = [sys.executable, "-m", "thermodrift.core.cli", "run"]
 TINY = ["dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
         "progress=false", "model=mlr", "n_trials=2"]
 
@@ -30,35 +27,21 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _env() -> dict:
-    env = {**os.environ, "MLFLOW_DISABLE_TELEMETRY": "true"}
-    env.pop("THERMODRIFT_SWEEP_ID", None)
-    return env
-
-
-@pytest.fixture()
-def workdir(tmp_path):
-    tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
-    return tmp_path
-
-
-def test_a_server_that_is_down_at_the_start_is_one_line_and_exit_2(workdir):
+def test_a_server_that_is_down_at_the_start_is_one_line_and_exit_2(workdir, cli):
     uri = f"http://127.0.0.1:{_free_port()}"
-    out = subprocess.run([*EXE, *TINY, f"tracking.uri={uri}"], cwd=workdir, env=_env(), capture_output=True,
-                         text=True, timeout=120)
+    out = cli(workdir, "run", *TINY, f"tracking.uri={uri}", timeout=120)
     assert out.returncode == 2 and "Traceback" not in out.stderr
     (line,) = out.stderr.strip().splitlines()
     assert uri in line and "does not answer" in line
-    grid = subprocess.run([*EXE, "-m", "seed=0,1", *TINY, f"tracking.uri={uri}"], cwd=workdir, env=_env(),
-                          capture_output=True, text=True, timeout=120)
+    grid = cli(workdir, "run", "-m", "seed=0,1", *TINY, f"tracking.uri={uri}", timeout=120)
     assert grid.returncode == 2 and "Traceback" not in grid.stderr and "does not answer" in grid.stderr
 
 
-def _start_server(folder, port: int) -> subprocess.Popen:
+def _start_server(cli, folder, port: int) -> subprocess.Popen:
     """A real MLflow tracking server on loopback, its store in ``folder``, answering /health."""
     proc = subprocess.Popen([sys.executable, "-m", "mlflow", "server", "--backend-store-uri",
                              f"sqlite:///{folder / 'x.db'}", "--host", "127.0.0.1", "--port", str(port),
-                             "--workers", "1"], cwd=folder, env=_env(), stdout=subprocess.DEVNULL,
+                             "--workers", "1"], cwd=folder, env=cli.env(), stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL, start_new_session=True)
     for _ in range(600):
         try:
@@ -71,12 +54,12 @@ def _start_server(folder, port: int) -> subprocess.Popen:
 
 
 @pytest.fixture()
-def server(tmp_path):
+def server(tmp_path, cli):
     """A real MLflow tracking server on loopback: (uri, process)."""
     port = _free_port()
     folder = tmp_path / "server"
     folder.mkdir()
-    proc = _start_server(folder, port)
+    proc = _start_server(cli, folder, port)
     yield f"http://127.0.0.1:{port}", proc
     if proc.poll() is None:
         os.killpg(proc.pid, signal.SIGKILL)
@@ -92,10 +75,11 @@ def _trial_states(db) -> list[tuple[str, str]]:
         return []
 
 
-def test_a_server_killed_mid_study_loses_no_trial_and_the_same_command_logs_the_study(workdir, server):
+def test_a_server_killed_mid_study_loses_no_trial_and_the_same_command_logs_the_study(workdir, server, cli):
     uri, proc = server
-    job = [*EXE, *TINY[:4], "model=bp", "model.params.trainer.epochs=20", "n_trials=6", f"tracking.uri={uri}"]
-    run = subprocess.Popen(job, cwd=workdir, env=_env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    job = ["run", *TINY[:4], "model=bp", "model.params.trainer.epochs=20", "n_trials=6", f"tracking.uri={uri}"]
+    run = subprocess.Popen([*cli.exe, *job], cwd=workdir, env=cli.env(), stdout=subprocess.DEVNULL,
+                           stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 240
     while time.time() < deadline and run.poll() is None and \
             not any(state == "COMPLETE" for _, state in _trial_states(workdir / "thermodrift.optuna.db")):
@@ -110,9 +94,9 @@ def test_a_server_killed_mid_study_loses_no_trial_and_the_same_command_logs_the_
     # The study went on without the server: the whole budget completed, nothing left RUNNING.
     assert [state for _, state in states] == ["COMPLETE"] * 6
     # The same command once the server is back: the study resumes complete and its result is logged.
-    proc = _start_server(workdir / "server", int(uri.rsplit(":", 1)[1]))
+    proc = _start_server(cli, workdir / "server", int(uri.rsplit(":", 1)[1]))
     try:
-        again = subprocess.run(job, cwd=workdir, env=_env(), capture_output=True, text=True, timeout=300)
+        again = cli(workdir, *job, timeout=300)
     finally:
         os.killpg(proc.pid, signal.SIGKILL)
         proc.wait()
@@ -120,10 +104,10 @@ def test_a_server_killed_mid_study_loses_no_trial_and_the_same_command_logs_the_
     assert [state for _, state in _trial_states(workdir / "thermodrift.optuna.db")] == ["COMPLETE"] * 6
 
 
-def test_a_server_killed_mid_grid_loses_no_trial_and_the_grid_ends_cleanly(workdir, server):
+def test_a_server_killed_mid_grid_loses_no_trial_and_the_grid_ends_cleanly(workdir, server, cli):
     uri, proc = server
-    grid = subprocess.Popen([*EXE, "-m", "seed=0,1,2,3", *TINY, f"tracking.uri={uri}"], cwd=workdir, env=_env(),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    grid = subprocess.Popen([*cli.exe, "run", "-m", "seed=0,1,2,3", *TINY, f"tracking.uri={uri}"], cwd=workdir,
+                            env=cli.env(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 240
     while not list(workdir.glob("multirun/*/0/job.json")) and time.time() < deadline and grid.poll() is None:
         time.sleep(0.05)

@@ -11,6 +11,7 @@ import importlib
 import os
 import re
 import sys
+import warnings
 
 from thermodrift.core.errors import InputError, PluginError
 
@@ -33,6 +34,7 @@ VERBS = {
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``thermodrift`` console script."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
+    warnings.showwarning = _warning_line
     argv = list(sys.argv[1:] if argv is None else argv)
     if argv and argv[0] == "run" and ("-h" in argv[1:] or "--help" in argv[1:]):
         from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
@@ -104,6 +106,18 @@ def plain(text: str) -> str:
     for pattern, repl in _RST:
         text = pattern.sub(repl, text)
     return text
+
+
+_WARNED: set[str] = set()
+
+
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr, once per text (Python's own format adds the source file and line, and
+    repeats a text raised from two places)."""
+    text = " ".join(str(message).split())
+    if text not in _WARNED:
+        _WARNED.add(text)
+        error_line(f"thermodrift: warning: {text}")
 
 
 def error_line(text: str) -> None:

@@ -60,6 +60,8 @@ def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scena
                       "fitted_error": round(fit_err, 4)})
         if best is None or err < (1 - MIN_GAIN) * best[1]:
             best = (h, err)
+    for row in table:
+        row["chosen"] = tuple(row["time_constants_h"]) == best[0]
     return best[0], table
 
 

@@ -168,6 +168,7 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                       "noise-weighted mean squared error): " + "; ".join(
                           f"{h['hidden_nodes']} (start τ {', '.join(f'{x:g}' for x in h['time_constants_h'])} h): "
                           f"fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
+                          + (" (chosen)" if h.get("chosen") else "")
                           for h in a["hidden_nodes"]) + "."]
     lines += ["", "## Findings", ""]
     if not d.findings:
