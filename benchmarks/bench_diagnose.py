@@ -227,7 +227,7 @@ def fl_cases(data: Path, seed: int, done: dict | None = None, results: Path | No
 
 
 def report(rows: list[dict], fl: list[dict], args) -> str:
-    fd = getattr(args, "generator", "library") != "library"
+    fd = getattr(args, "generator", "library") != "library" and all("share" in r for r in rows)
     acc_target, cut_target = ("≥ 85 %", "≥ 40 %") if fd else ("≥ 90 %", "≥ 50 %")
     hidden = [r for r in rows if r["hidden"] != "none"]
     nulls = [r for r in rows if r["hidden"] == "none"]
