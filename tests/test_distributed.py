@@ -87,10 +87,7 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
     assert len(numbers) == len(set(numbers)), "duplicate trial numbers"
     assert "RUNNING" not in by_state, "the killed worker's trial is still RUNNING"
     assert [t.user_attrs.get("killed") for t in by_state["FAIL"]] == [True], "the killed trial is not marked"
-    # the budget counts finished trials, killed ones aside (resume.StudyBudget): since each worker draws its own
-    # stream, the pruner stops some of them, and a pruned trial is finished
-    assert 16 <= len(by_state["COMPLETE"]) + len(by_state.get("PRUNED", [])) <= 16 + 3
-    assert by_state["COMPLETE"], "no trial completed"
+    assert 16 <= len(by_state["COMPLETE"]) <= 16 + 3
     assert _logged_complete(tmp_path) <= {t.number for t in by_state["COMPLETE"]}, "a completed trial was lost"
 
 
