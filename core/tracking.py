@@ -197,7 +197,15 @@ def _log_dataset(result) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # mlflow's notes on schema inference for integer columns
         dataset = mlflow.data.from_pandas(rec.data.reset_index(), source=str(rec.source), name=name)
-        mlflow.log_input(dataset, context="recording")
+        for attempt in (1, 2, 3):
+            try:
+                mlflow.log_input(dataset, context="recording")
+                return
+            except Exception as exc:  # noqa: BLE001 - MLflow wraps the database error in its own types
+                # MLflow's store looks the dataset up, then inserts it: two runs logging one recording at the same
+                # moment collide on its unique key; the retry finds the row the other run wrote.
+                if attempt == 3 or not any(s in str(exc) for s in ("UNIQUE constraint", "duplicate key")):
+                    raise
 
 
 def selector_report(selector, folder: Path) -> dict[str, Path]:
