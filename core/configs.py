@@ -29,7 +29,7 @@ _PRIMARY = f"pkg://{CONFIG_MODULE}"
 
 
 # Parameters a job passes itself, left out of the node so that they follow the run: the run's seed (selectors,
-# models: study._with_seed; optimizers: the sampler's seed) and the study's budget (optimizers).
+# models: registry.with_seed; optimizers: the sampler's seed) and the study's budget (optimizers).
 _PASSED_BY_THE_JOB = {"selector": ("random_state", "seed"), "model": ("random_state", "seed"),
                       "optimizer": ("seed", "n_trials")}
 

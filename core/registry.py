@@ -169,6 +169,17 @@ def accepts(factory: Callable[..., Any], param: str) -> bool:
     return param in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
 
 
+def with_seed(factory: Callable[..., Any], params: dict[str, Any], seed: int) -> dict[str, Any]:
+    """``params`` plus ``seed`` under the name the component uses for it (``random_state`` or ``seed``), if it
+    takes one and ``params`` does not set it."""
+    out = dict(params)
+    for key in ("random_state", "seed"):
+        if accepts(factory, key):
+            out.setdefault(key, seed)
+            break
+    return out
+
+
 def build(factory: Callable[..., Any], params: dict[str, Any]) -> Any:
     """``factory(**params)``, where scikit-learn's nested names (``trainer__lr_max``) are set afterwards
     through the built object's ``set_params``, so a search space can tune a component's nested settings."""

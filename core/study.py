@@ -215,7 +215,7 @@ class Job:
 
     def _model(self, name: str, params: dict):
         factory = registry.get("model", name).factory
-        return registry.create("model", name, **_with_seed(factory, params, self.spec.seed))
+        return registry.create("model", name, **registry.with_seed(factory, params, self.spec.seed))
 
     def _study(self, name: str) -> optuna.Study:
         spec = self.spec
@@ -277,7 +277,7 @@ class _FoldRun:
         """The selector fitted on ``rows`` with the spec's parameters and ``params`` on top."""
         spec = self.spec
         sel = registry.create("selector", spec.selector,
-                              **_with_seed(self.selector_factory, {**spec.selector_params, **params}, spec.seed))
+                              **registry.with_seed(self.selector_factory, {**spec.selector_params, **params}, spec.seed))
         return sel.fit(self.X.iloc[rows], self.y.iloc[rows])
 
     def tune(self, selector) -> _Tuned:
@@ -427,14 +427,3 @@ def _nested(params: dict[str, Any]) -> dict[str, Any]:
         if isinstance(out.get(outer), dict):
             out[outer] = {**out[outer], inner: out.pop(key)}
     return out
-
-
-def _with_seed(factory: Callable, params: dict, seed: int) -> dict:
-    """``params`` plus the run's seed under the name the component uses for it, if it takes one."""
-    out = dict(params)
-    for key in ("random_state", "seed"):
-        if registry.accepts(factory, key):
-            out.setdefault(key, seed)
-            break
-    return out
-

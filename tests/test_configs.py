@@ -7,7 +7,6 @@ from omegaconf import OmegaConf
 from thermodrift.core import configs, registry
 from thermodrift.core.cli.run import spec_from_config
 from thermodrift.core.registry import CONFIG_GROUPS, Registry
-from thermodrift.core.study import _with_seed
 from thermodrift.testing import compose_config
 
 
@@ -70,8 +69,8 @@ def test_the_run_seed_reaches_components_whose_config_is_generated():
     reg = registry.default()
     spec = spec_from_config(compose_config(["model=lstm", "selector=random_k", "seed=7"], reg.searchpaths, reg))
     assert "random_state" not in spec.model_params and "random_state" not in spec.selector_params
-    assert _with_seed(reg.get("model", "lstm").factory, spec.model_params, spec.seed)["random_state"] == 7
-    assert _with_seed(reg.get("selector", "random_k").factory, spec.selector_params, spec.seed)["random_state"] == 7
+    assert registry.with_seed(reg.get("model", "lstm").factory, spec.model_params, spec.seed)["random_state"] == 7
+    assert registry.with_seed(reg.get("selector", "random_k").factory, spec.selector_params, spec.seed)["random_state"] == 7
 
 
 class SeededLinear:

@@ -34,15 +34,6 @@ SELECTABLE_ROLES = TEMPERATURE_ROLES  # °C: what a selector picks from
 INPUT_ROLES = (*SELECTABLE_ROLES, *DRIVE_ROLES)
 
 
-def _seeded(factory, params: dict, seed: int) -> dict:
-    out = dict(params)
-    for key in ("random_state", "seed"):
-        if registry.accepts(factory, key):
-            out.setdefault(key, seed)
-            break
-    return out
-
-
 def pack(model: ThermalModel, name: str) -> dict[str, Any]:
     """A fitted registry model as plain data: its name, constructor parameters and fitted state."""
     params = model.get_params(deep=False)
@@ -107,7 +98,7 @@ class Pipeline(ThermalModel):
         else:
             factory = registry.get("selector", self.selector).factory
             sel = registry.create("selector", self.selector,
-                                  **_seeded(factory, dict(self.selector_params or {}), self.random_state))
+                                  **registry.with_seed(factory, dict(self.selector_params or {}), self.random_state))
             self.selected_ = list(sel.fit(X[candidates], targets).selected_)
         drives = [c for c in X.columns if roles.get(c) in DRIVE_ROLES]
         if self.features is not None:
@@ -128,7 +119,7 @@ class Pipeline(ThermalModel):
                      if roles.get(c) == role and c not in self.selected_]
             self.inner_columns_ = self.selected_ + list(dict.fromkeys(extra))
         self.input_roles_ = {c: roles.get(c, "temperature") for c in self.inner_columns_}
-        inner = registry.create("model", self.model, **_seeded(cls, dict(self.model_params or {}), self.random_state))
+        inner = registry.create("model", self.model, **registry.with_seed(cls, dict(self.model_params or {}), self.random_state))
         self.inner_ = inner.fit(self._inner_frame(X), targets)
 
     def _inner_frame(self, X: pd.DataFrame, history: pd.DataFrame | None = None) -> pd.DataFrame:
