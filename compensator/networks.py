@@ -24,8 +24,8 @@ from torch import nn
 from thermodrift.compensator.runtime import Base
 
 
-class _LSTM(nn.Module):
-    """One LSTM layer and a linear head on the last step (the ``lstm`` model's network)."""
+class LSTMNet(nn.Module):
+    """One LSTM layer and a linear head on the last step: the ``lstm`` model's network (it builds it from here)."""
 
     def __init__(self, n_inputs: int, hidden: int, n_outputs: int):
         super().__init__()
@@ -51,7 +51,7 @@ def _exported(state) -> nn.Module:
     return serde.deserialize(artifact).module()
 
 
-ARCHITECTURES = {"lstm": lambda s: _LSTM(int(s["n_inputs"]), int(s["hidden_units"]), int(s["n_outputs"])),
+ARCHITECTURES = {"lstm": lambda s: LSTMNet(int(s["n_inputs"]), int(s["hidden_units"]), int(s["n_outputs"])),
                  "torch.export": _exported}
 
 

@@ -49,22 +49,11 @@ class LSTM(SequenceModel):
                 "hidden_units": {"type": "int", "low": 1, "high": 200}}
 
     def _network(self, n_inputs: int, n_outputs: int) -> nn.Module:
-        from torch import nn
+        from thermodrift.compensator.networks import LSTMNet  # one home: the runtime rebuilds the same network
 
         if self.hidden_units < 1:
             raise ValueError(f"hidden_units must be >= 1, got {self.hidden_units}")
-
-        class _Net(nn.Module):
-            def __init__(self, hidden: int):
-                super().__init__()
-                self.lstm = nn.LSTM(n_inputs, hidden, batch_first=True)
-                self.head = nn.Linear(hidden, n_outputs)
-
-            def forward(self, x):
-                out, _ = self.lstm(x)
-                return self.head(out[:, -1])
-
-        return _Net(int(self.hidden_units))
+        return LSTMNet(n_inputs, int(self.hidden_units), n_outputs)
 
     def export_state(self) -> dict:
         """Runtime ``sequence`` (architecture ``lstm``): the weights as torch tensors and the scalers."""
