@@ -1,5 +1,6 @@
-"""The search: a portfolio first, then Optuna's TPE over the conditional space of the promising families, then
-successive halving of the networks on epochs, then the greedy ensemble.
+"""The search: a portfolio first, then successive halving of the networks on epochs (a network far behind the
+best pipeline is dropped at its lowest fidelity), then Optuna's TPE over the conditional space of the promising
+cheap families with the budget left, then the greedy ensemble.
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
@@ -112,8 +113,8 @@ class Search:
         try:
             self._phase("portfolio", lambda: [(c, "portfolio") for c in
                                               space.portfolio(list(self.families.values()), self.selectors)])
-            self._tpe()
             self._promote()
+            self._tpe()
         finally:
             if self.bar is not None:
                 self.bar.close()
@@ -258,12 +259,12 @@ class Search:
         return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
 
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
-        """Greedy ensemble over a diverse pool: the best candidate of each family with raw inputs and with
-        features (members that err differently are what an ensemble gains from), best first."""
+        """Greedy ensemble over a diverse pool: the best candidate of each family on each input set (raw, each
+        filter bank; members that err differently are what an ensemble gains from), best first."""
         top = self.settings.top_rung
         pool, seen = [], set()
         for e in sorted(ok, key=lambda e: (e.score, e.number)):
-            key = (e.candidate.family, e.candidate.params.get("features") is None)
+            key = (e.candidate.family, json.dumps(e.candidate.params.get("features"), sort_keys=True))
             if key in seen or not self._full(e):
                 continue
             seen.add(key)
