@@ -2,7 +2,8 @@
 
 Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under three condition-held-out
 splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm condition held out,
-training on every earlier condition; the 4500 rpm condition held out, the last one), and the four reference
+training on every earlier condition; the 4500 rpm condition held out, the last one; the final block of short
+runs, 500/1500/2500/4500 rpm, held out after training on t < 40.13 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
 their last working condition held out, every displacement channel). The default run is two small reference
 machines with small budgets (under 10 minutes on 2 cores).
@@ -25,6 +26,10 @@ task in ``--cache`` (JSON), so ``--full`` can run in pieces and resumes. Wall ti
 Run::
 
     python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
+        [--budgets FITS ...] [--hindsight-trials N]
+
+``--budgets`` replaces the set's budgets (the default budget is always run) and ``--hindsight-trials`` its TPE
+trials per family for the hindsight best, so a piece of ``--full`` fits a time slot; the cache file names both.
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ TASKS = {
                    "split_params": {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}},
     "fl_3500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3500rpm"]}},
     "fl_4500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["4500rpm"]}},
+    "fl_final": {**FL, "split": "time_window", "split_params": {"train_end_h": 40.13, "test_start_h": 40.13}},
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
@@ -202,8 +208,17 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
     parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
+    parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
+    parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
     args = parser.parse_args()
     conf = dict(FULL if args.full else QUICK)
+    if args.budgets is not None:
+        conf["budgets"] = args.budgets
+    if args.hindsight_trials is not None:
+        conf["tpe"] = args.hindsight_trials
+    tag = "full" if args.full else "quick"
+    if args.budgets is not None or args.hindsight_trials is not None:
+        tag += f"-b{'_'.join(map(str, sorted(set(conf['budgets']))))}-t{conf['tpe']}"
     names = args.tasks or (list(TASKS) if args.full else QUICK["tasks"])
     unknown = [n for n in names if n not in TASKS]
     if unknown:
@@ -211,7 +226,7 @@ def main() -> None:
     args.cache.mkdir(parents=True, exist_ok=True)
     results = []
     for name in names:
-        path = args.cache / f"{name}-{'full' if args.full else 'quick'}-s{args.seed}.json"
+        path = args.cache / f"{name}-{tag}-s{args.seed}.json"
         if path.exists():
             print(f"{name}: cached in {path}")
             results.append(json.loads(path.read_text(encoding="utf-8")))

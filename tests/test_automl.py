@@ -209,3 +209,26 @@ def test_a_rerun_resumes_from_the_storage_and_only_runs_the_missing_budget(tmp_p
     assert first.search.fits == 6 and second.search.fits == 10 and any("resumed" in s for s in said)
     assert [e.number for e in second.search.entries][:3] == [e.number for e in first.search.entries]
     assert [e.score for e in second.search.entries][:3] == [e.score for e in first.search.entries]
+
+
+def test_portfolio_reads_each_filter_bank_along_the_penalty_path_cheap_families_untuned_first():
+    fams = space.families(only=["mlr", "transfer_function", "lptn"])
+    cands = space.portfolio(fams, {"all": {}})
+    mlr_feats = [c for c in cands if c.family == "mlr" and c.params["features"]]
+    alpha_high = space.families(only=["mlr"])[0].space["alpha"]["high"]
+    expected = {(tuple(b["taus_s"]), min(a, alpha_high)) for b in space.FILTER_BANKS for a in space.ALPHA_PATH}
+    assert {(tuple(c.params["features"]["taus_s"]), c.params["model_params"]["alpha"]) for c in mlr_feats} == expected
+    assert not [c for c in cands if c.family in ("transfer_function", "lptn") and c.params["features"]]
+    order = [(c.family, bool(c.params["features"])) for c in cands]
+    # every cheap family's untuned pipeline comes before the first feature pipeline, and the physics family last
+    assert order.index(("transfer_function", False)) < order.index(("mlr", True))
+    assert order[-1] == ("lptn", False)
+
+
+def test_networks_are_promoted_before_tpe_spends_the_budget(monkeypatch):
+    from thermodrift.core.automl import search
+
+    monkeypatch.setattr(search, "PROMOTE_WITHIN", float("inf"))  # every network is worth more epochs here
+    board = _run(["mlr", "bp"], budget=40, top_rung=1).leaderboard
+    assert "rung1" in set(board["phase"]) and "tpe" in set(board["phase"])
+    assert board.loc[board["phase"] == "rung1", "trial"].max() < board.loc[board["phase"] == "tpe", "trial"].min()
