@@ -77,9 +77,12 @@ def held_out(job) -> dict:
             "mlr": job.summary_metrics("mlr")["rmse"], "persistence": job.summary_metrics("persistence")["rmse"]}
 
 
-def run_automl(spec: JobSpec, recording, budget: int, families) -> dict:
+def run_automl(spec: JobSpec, recording, budget: int, families, board: Path | None = None) -> dict:
+    """automl at ``budget`` fits: held-out RMSE, wall time, the choice; its leaderboard into ``board`` (CSV)."""
     started = time.perf_counter()
     result = automl_job.run(spec, Settings(budget_fits=budget, families=families), recording=recording)
+    if board is not None:
+        result.leaderboard.to_csv(board, index=False)
     chosen = result.search.ensemble or result.search.best.candidate.params
     return {"budget": budget, "wall_s": time.perf_counter() - started, **held_out(result.job),
             "chosen": result.job.spec.model, "label": json.dumps(chosen, default=str)[:300],
@@ -148,7 +151,8 @@ def run_task(name: str, conf: dict, args) -> dict:
     budgets = sorted(set(conf["budgets"]) | {conf["default"]})
     runs = []
     for b in budgets:
-        runs.append(run_automl(spec, recording, b, conf["families"]))
+        runs.append(run_automl(spec, recording, b, conf["families"],
+                               args.cache / f"{name}-leaderboard-b{b}-s{args.seed}.csv"))
         r = runs[-1]
         print(f"  {name}: automl budget {b}: held-out RMSE {r['rmse']:.3f} µm in {r['wall_s']:.0f} s "
               f"({r['chosen']})", flush=True)
