@@ -232,3 +232,26 @@ def test_networks_are_promoted_before_tpe_spends_the_budget(monkeypatch):
     board = _run(["mlr", "bp"], budget=40, top_rung=1).leaderboard
     assert "rung1" in set(board["phase"]) and "tpe" in set(board["phase"])
     assert board.loc[board["phase"] == "rung1", "trial"].max() < board.loc[board["phase"] == "tpe", "trial"].min()
+
+
+def test_lptn_and_lptn_hybrid_on_the_same_rows_share_one_calibration(monkeypatch):
+    """AutoML fits both physics families on every inner fold: the deterministic calibration runs once, and a
+    model built from the shared result predicts exactly as one calibrated alone."""
+    from thermodrift.core.physics import calibration as cal
+    from thermodrift.plugins.models import lptn
+
+    rec = tiny_recording()
+    targets = ["disp_z_um"]
+    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "lptn").factory, targets)
+    y = rec.data[targets]
+    small = {"hidden_nodes": 1, "max_evaluations": 5, "max_fit_samples": 150}
+    alone = registry.create("model", "lptn", **small).fit(X.iloc[:200], y.iloc[:200]).predict(X.iloc[200:260])
+    calls = []
+    real = cal.calibrate
+    monkeypatch.setattr(cal, "calibrate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(lptn, "_CALIBRATIONS", {})
+    first = registry.create("model", "lptn", **small).fit(X.iloc[:200], y.iloc[:200])
+    registry.create("model", "lptn_hybrid", **small, alpha=1.0).fit(X.iloc[:200], y.iloc[:200])
+    registry.create("model", "lptn", **small).fit(X.iloc[:150], y.iloc[:150])  # other rows: calibrated anew
+    assert len(calls) == 2
+    np.testing.assert_array_equal(first.predict(X.iloc[200:260]), alone)
