@@ -111,6 +111,17 @@ def test_a_misspelt_pruner_is_bad_input_before_any_work(reg, rec):
     assert "\n" not in str(err.value)
 
 
+def test_a_paper_protocol_job_and_its_export_warn_once(reg, rec):
+    import warnings
+
+    from thermodrift.core import deployment
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        deployment.limits(Job(spec(split="shuffled", n_trials=2)).run(rec))
+    assert sum("paper protocol" in str(w.message) for w in caught) == 1
+
+
 def test_unknown_split_is_bad_input(reg, rec):
     from thermodrift.core.errors import InputError
 
