@@ -58,7 +58,7 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     # trials long enough (bp, 200 epochs) that the victim spends most of its time inside one, where it is killed
-    args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random",
+    args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random", "optuna.pruner=none",
             f"optuna.storage={storage}", f"optuna.study_name={name}"]
     workers = [_start(cli, tmp_path, args) for _ in range(4)]
     victim, deadline = workers[0], time.time() + 300

@@ -15,7 +15,7 @@ import mlflow
 import pytest
 
 ARGS = ["run", "dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
-        "progress=false", "model=bp", "model.params.trainer.epochs=30", "optimizer=random"]
+        "progress=false", "model=bp", "model.params.trainer.epochs=100", "optimizer=random"]
 
 
 def _states(db: Path) -> dict[str, int]:
@@ -47,6 +47,8 @@ def _kill_mid_trial(cli, cwd: Path, n_trials: int) -> None:
         if states.get("COMPLETE", 0) >= 1 and states.get("IN_OBJECTIVE", 0) == 1:
             break
         time.sleep(0.02)
+    # trials of 100 epochs last long enough that the polling above sees the second one running
+    assert proc.poll() is None, f"the job ended before its second trial was seen running: {_states(db)}"
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     states = _states(db)
