@@ -164,6 +164,36 @@ def run_task(name: str, conf: dict, args) -> dict:
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
 
 
+def inner_table(name: str, args) -> str:
+    """Why a choice goes wrong: every portfolio candidate (networks aside) with its inner-fold RMSEs (µm), their
+    (mean + worst) / 2 and its held-out RMSE after the refit on the whole training part (µm)."""
+    from thermodrift.core.automl import folds as inner
+    from thermodrift.core.automl.evaluate import Evaluator
+    from thermodrift.core.study import predict_rows
+
+    spec = spec_of(TASKS[name], args.seed, args.data)
+    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
+    targets = automl_job.targets_of(recording, spec.targets)
+    folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
+    ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
+    fams = [f for f in space.families() if not f.network]
+    lines = [f"{name}: inner folds " + "; ".join(f.name.removeprefix("inner: ") for f in folds),
+             "| candidate | " + " | ".join(f"fold {k + 1}" for k in range(len(folds))) + " | inner score | held out |",
+             "|---|" + "---:|" * (len(folds) + 2)]
+    for cand in space.portfolio(fams, space.selectors()):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            e = ev.evaluate(cand.params, measure_costs=False)
+            model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
+            pred = predict_rows(model, ev.X, fold.test)
+        out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
+        lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
+                     + f" | {e.score:.2f} | {out:.2f} |")
+        print(lines[-1], flush=True)
+    return "\n".join(lines)
+
+
 def table(results: list[dict]) -> str:
     head = ("| task | automl RMSE (µm) | budget (fits) | wall s | hindsight best | its RMSE | automl / hindsight "
             "| FLAML raw | FLAML features | automl / FLAML best |")
@@ -215,7 +245,13 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
+    parser.add_argument("--inner-table", action="store_true",
+                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task")
     args = parser.parse_args()
+    if args.inner_table:
+        for name in args.tasks or QUICK["tasks"]:
+            print(inner_table(name, args))
+        return
     conf = dict(FULL if args.full else QUICK)
     if args.budgets is not None:
         conf["budgets"] = args.budgets
