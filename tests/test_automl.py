@@ -255,3 +255,26 @@ def test_lptn_and_lptn_hybrid_on_the_same_rows_share_one_calibration(monkeypatch
     registry.create("model", "lptn", **small).fit(X.iloc[:150], y.iloc[:150])  # other rows: calibrated anew
     assert len(calls) == 2
     np.testing.assert_array_equal(first.predict(X.iloc[200:260]), alone)
+
+
+def test_an_ensemble_whose_members_cancel_only_on_the_inner_folds_loses_out_of_fold():
+    from thermodrift.core.automl.ensemble import caruana, out_of_fold
+
+    n = 50
+    truth = [np.zeros((n, 1)), np.zeros((n, 1))]
+
+    def fold_rmse(pred, k):
+        return float(np.sqrt(np.mean((pred - truth[k]) ** 2)))
+
+    def score(mix):
+        return inner.aggregate([fold_rmse(m, k) for k, m in enumerate(mix)])
+
+    const = [[np.full((n, 1), a), np.full((n, 1), b)] for a, b in ((1.0, 1.0), (-0.9, 0.5))]
+    weights, in_sample = caruana(const, score)
+    assert in_sample < min(score(p) for p in const)  # in sample, the cancelling pair wins
+    ens, single = out_of_fold(const, fold_rmse, inner.aggregate)
+    assert ens > single  # out of fold it does not
+    rng = np.random.default_rng(0)
+    noisy = [[rng.normal(0.0, 1.0, (n, 1)) for _ in range(2)] for _ in range(3)]
+    ens, single = out_of_fold(noisy, fold_rmse, inner.aggregate)
+    assert ens < single  # independent errors: averaging wins out of fold too
