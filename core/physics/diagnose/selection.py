@@ -84,6 +84,10 @@ class Fitted:
     declared: list = field(default_factory=list)  # (FreeParameter, start) of every parameter the mechanism declares
     fixed: dict[str, float] = field(default_factory=dict)  # parameters the data cannot identify, held at a value
     spread: float = 0.0  # standard error of its held-out block error (noise units per sample), set by the finder
+    drop: Any = None       # per channel: drop of the whitened sum of squares on the fitted rows
+    block_drop: Any = None  # (blocks, channels): the same per condition block
+    val_drop: Any = None   # per channel: drop of the noise-weighted sum of squares on the inner validation block
+    val_base: Any = None   # per channel: the baseline's noise-weighted sum of squares there
 
 
 def _declared(cand: Candidate, base: Network,
@@ -162,6 +166,7 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
         fitted.val_bal = float(drop @ weights)
+        fitted.val_drop, fitted.val_base = drop, d0.sum(axis=0)
         if displacement is not None:
             fitted.val_disp, fitted.val_disp0 = float(drop[displacement].sum()), float(d0[:, displacement].sum())
             fitted.val_disp_n = int(d0[:, displacement].size)
@@ -222,15 +227,16 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
     slack = 1e-6
     outside = [f"{fp.name} = {params[fp.name]:.4g} {fp.unit} outside [{fp.low:g}, {fp.high:g}]" for fp, _ in declared
                if not fp.low - slack * abs(fp.low) <= params[fp.name] <= fp.high + slack * abs(fp.high)]
-    block_raw = block_bal = None
+    block_raw = block_bal = block_drop = None
+    diff = d0 - d1
     if blocks is not None:
         nb = int(blocks.max()) + 1
-        diff = d0 - d1
         block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
         block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
+        block_drop = np.column_stack([np.bincount(blocks, diff[:, c], minlength=nb) for c in range(diff.shape[1])])
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
                   float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal,
-                  declared=declared)
+                  declared=declared, drop=diff.sum(axis=0), block_drop=block_drop)
 
 
 def _values_and_intervals(res, declared) -> tuple[dict[str, float], dict[str, list[float] | None]]:
