@@ -14,17 +14,19 @@ Pipeline (:func:`diagnose`)::
                   linearised, whitened response (:mod:`.screening`); mechanisms whose drivers are missing or
                   constant are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
-    accept        the best fitted one if its whitened likelihood ratio is a discovery by Benjamini–Hochberg over
+    accept        a fitted candidate is judged on the channels it reaches (:mod:`.rule`): the drift channels when
+                  its response reaches them (the temperatures only guard), else the temperature channels it
+                  changes. There its whitened likelihood ratio must be a discovery by Benjamini–Hochberg over
                   the round's screened candidates at the round's level (α/2, α/4, … over rounds: the
                   false-discovery level stays below α in all), its fitted parameters lie within their physical
                   bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
                   and, fitted again without the inner validation block (the last ~20 % of the screening rows,
                   cut at a condition boundary), it predicts that block better than the baseline refitted alike
-                  by more per sample than the error it leaves varies from block to block (standard error over
-                  the condition blocks: the scale of the structural misfit on this machine, in its own units)
-                  and its drift no worse than 10 % or than 3 standard deviations of noise (noise-weighted sum
-                  of squares of the displacement channels); then screen again on the augmented network (forward
-                  selection) until nothing passes
+                  by more per sample than two standard errors of the block-to-block spread of the error it
+                  leaves there (the scale of the structural misfit on this machine, in its own units), without
+                  making the other channels worse than their own spread; of those passing, one judged on the
+                  drift comes first. Then screen again on the augmented network (forward selection) until
+                  nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit; a parameter whose interval is not finite, misses its
@@ -268,7 +270,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": rule.why_not(f, j, d, level, m)})
             break
         by_judged = [dataclasses.replace(fitted[i], dsse_bal=judged[i].statistic, block_raw=_judged_blocks(
-            fitted[i], judged[i], displacement), block_bal=_judged_blocks(fitted[i], judged[i], displacement))
+            fitted[i], judged[i]), block_bal=_judged_blocks(fitted[i], judged[i]))
             for i in lead]
         win = passing[by_judged.index(selection.parsimonious(by_judged, level))]
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
@@ -305,10 +307,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                      scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
 
 
-def _judged_blocks(f, j, displacement: np.ndarray) -> np.ndarray:
+def _judged_blocks(f, j) -> np.ndarray:
     """Per condition block the drop of the whitened sum of squares on the candidate's judged channels."""
-    mask = displacement if j.group == "drift" else ~displacement
-    return f.block_drop[:, mask].sum(axis=1)
+    return f.block_drop[:, j.channels].sum(axis=1)
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:

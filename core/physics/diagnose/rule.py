@@ -3,8 +3,8 @@ the structural misfit on this machine.
 
 A mechanism whose response reaches the drift channels is judged on them (the quantity a compensation
 predicts); the temperature channels only guard against a fit that buys its drift gain by making them worse. A
-mechanism that changes the temperature readings alone (a sensor's lag) is judged on those, and the drift
-channels guard. Judging the temperature and drift channels balanced lets the temperature channels' structural
+mechanism that changes the temperature readings alone (a sensor's lag) is judged on the channels it changes, and
+the others guard. Judging the temperature and drift channels balanced lets the temperature channels' structural
 misfit (surface sensors of a body that is no lumped network) outvote the drift: a true mechanism improving the
 unseen drift by half lost on the total, and a sensor lag improving the temperatures alone won.
 
@@ -24,14 +24,14 @@ On the judged channels (:func:`judge`):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
 from thermodrift.core.physics.diagnose.screening import cv_of
 
-SPREAD_Z = 1.0     # held-out gain per sample over this many standard errors of the block-to-block spread
+SPREAD_Z = 2.0     # held-out gain per sample over this many standard errors of the block-to-block spread
 GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-out block (share of their error) ...
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
@@ -54,6 +54,7 @@ class Judged:
     guard_base: float
     guard_spread: float
     n_val: int
+    channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
 
     def held_out(self) -> bool:
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
@@ -87,16 +88,18 @@ def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, 
 def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
           rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> Judged:
     """The statistics of fitted candidate ``f`` (:class:`.selection.Fitted`) on its judged channels: the drift
-    channels (``displacement``, bool per channel) when its response reaches them, else the temperatures.
-    ``group_is_drift`` marks the screening's amplitude groups that are drift channels."""
-    drift = bool(displacement.any()) and float(np.abs(f.candidate.response[:, displacement]).max()) > 1e-9
-    judged = displacement if drift else ~displacement
+    channels (``displacement``, bool per channel) when its response reaches them, else the temperature channels
+    its response changes (a lagged sensor's own). ``group_is_drift`` marks the screening's amplitude groups that
+    are drift channels."""
+    reach = np.abs(f.candidate.response).max(axis=0) > 1e-9
+    drift = bool((reach & displacement).any())
+    judged = displacement if drift else (~displacement & reach)
     guard = ~judged
     cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
     cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
     per_block = f.candidate.cv_blocks @ cv_w
     sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
-    cv_t = float(np.mean(per_block)) / (sd / np.sqrt(len(per_block))) if sd > 0 else 0.0
+    cv_t = float(np.mean(per_block) / (sd / np.sqrt(len(per_block)))) if sd > 0 else 0.0
     stat = float(f.drop[judged].sum())
 
     def spread(mask):
@@ -105,7 +108,7 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
 
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()), spread(judged),
-                  float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard), len(val_rows))
+                  float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard), len(val_rows), judged)
 
 
 def passes(f, j: Judged, discovered: bool) -> bool:
