@@ -346,7 +346,7 @@ def main(argv: list[str] | None = None) -> int:
                     "at 15 s (run time at the target's sampling; --full includes them)")
     ap.add_argument("--fl-part", metavar="K/N",
                     help="with --fl: run only every N-th FL_THERMAL diagnosis from the K-th")
-    ap.add_argument("--part", metavar="K/N", help="with --generator fd|lumped: run only every N-th case from the K-th "
+    ap.add_argument("--part", metavar="K/N", help="run only every N-th case from the K-th "
                     "(1-based), for N processes side by side (each with its own --results; --pool joins them)")
     ap.add_argument("--pool", nargs="+", type=Path, metavar="ROWS",
                     help="run nothing: one report over the finished cases of these --results files (generators pooled)")
@@ -379,6 +379,9 @@ def main(argv: list[str] | None = None) -> int:
         cases += [concealed_case(physics.load_network(m), h, 9000 + off + i, registry=reg, dt_s=15.0)
                   for i, (m, h) in enumerate([("vmc_spindle_s2", "slow_structural_mode"),
                                               ("motorized_spindle_s3", "coolant_coupling")])]
+    if args.part:
+        k, n = (int(v) for v in args.part.split("/"))
+        cases = cases[k - 1::n]
     for case in cases:
         if case.name in done:
             rows.append(done[case.name])

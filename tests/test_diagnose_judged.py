@@ -88,3 +88,20 @@ def test_blocks_that_do_not_improve_on_the_judged_channels_refuse_it():
     f = _fitted(thermal, readings, cv_blocks=cv)
     j = rule.judge(f, DISPLACEMENT, GROUP_IS_DRIFT, measured, sigma, rows, blocks, val)
     assert j.cv_wins == 0.0 and not rule.passes(f, j, True)
+
+
+def test_a_gain_carried_by_one_block_is_not_consistent_over_the_conditions():
+    rng = np.random.default_rng(4)
+    measured, sigma, rows, blocks, val = _case(rng, 0.0)
+    thermal = np.column_stack([np.ones(N), np.linspace(0, 2, N)])
+    spiky = np.zeros((BLOCKS, 2))
+    spiky[:, 1] = [40.0, 0.5, 0.4, 0.6, -0.5, 0.3, -0.4, -0.6]  # most of the gain in one block
+    steady = np.zeros((BLOCKS, 2))
+    steady[:, 1] = [3.0, 2.5, 3.5, 2.0, 4.0, 3.0, 2.8, 3.2]
+    case = (DISPLACEMENT, GROUP_IS_DRIFT, measured, sigma, rows, blocks, val)
+    f_spiky, f_steady = _fitted(thermal, READINGS, cv_blocks=spiky), _fitted(thermal, READINGS, cv_blocks=steady)
+    j_spiky, j_steady = rule.judge(f_spiky, *case), rule.judge(f_steady, *case)
+    assert j_spiky.cv_gain > j_steady.cv_gain and j_spiky.cv_wins >= 0.5
+    assert not j_spiky.consistent() and j_steady.consistent()
+    assert rule.passes(f_steady, j_steady, True) and not rule.passes(f_spiky, j_spiky, True)
+    assert "consistently" in rule.why_not(f_spiky, j_spiky, True, 0.005, 10)

@@ -14,7 +14,9 @@ On the judged channels (:func:`judge`):
            χ²(free parameters) with nothing missing; the parameters were fitted on every channel, so on a subset
            the drop is at most what fitting that subset alone would give: the test stays valid (conservative).
            The p-values of a round go to Benjamini–Hochberg (:mod:`.noise`).
-* blocks   the condition-blocked cross-validated gain of the screening is positive on at least half the blocks.
+* blocks   the condition-blocked cross-validated gain of the screening improves at least half the blocks and
+           its per-block mean is positive by a one-sided t-test at :data:`CV_LEVEL` (consistent over the
+           conditions, not carried by one block where the baseline extrapolates badly).
 * held out fitted without the inner validation block, it predicts that block better by more per sample than
            the error it leaves on those channels varies from block to block (its standard error over the
            condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
@@ -35,6 +37,7 @@ SPREAD_Z = 2.0     # held-out gain per sample over this many standard errors of 
 GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-out block (share of their error) ...
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
+CV_LEVEL = 0.10     # one-sided level of the t-test that the per-block cross-validated gain is positive
 
 
 @dataclass
@@ -55,6 +58,11 @@ class Judged:
     guard_spread: float
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
+    blocks: int = 0       # condition blocks of the cross-validation
+
+    def consistent(self) -> bool:
+        return (self.cv_gain > 0 and self.cv_wins >= MIN_WINS
+                and self.cv_t >= float(stats.t.isf(CV_LEVEL, max(self.blocks - 1, 1))))
 
     def held_out(self) -> bool:
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
@@ -69,7 +77,8 @@ class Judged:
                 "judged_cv_t": self.cv_t, "judged_validation_gain":
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
-                "guard_block_spread": self.guard_spread, "validation_samples": self.n_val}
+                "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
+                "cv_blocks": self.blocks}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -99,7 +108,8 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
     per_block = f.candidate.cv_blocks @ cv_w
     sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
-    cv_t = float(np.mean(per_block) / (sd / np.sqrt(len(per_block)))) if sd > 0 else 0.0
+    mean = float(np.mean(per_block)) if len(per_block) else 0.0
+    cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
     stat = float(f.drop[judged].sum())
 
     def spread(mask):
@@ -108,13 +118,13 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
 
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()), spread(judged),
-                  float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard), len(val_rows), judged)
+                  float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard), len(val_rows), judged,
+                  len(per_block))
 
 
 def passes(f, j: Judged, discovered: bool) -> bool:
     """Every test of the module docstring, given the Benjamini–Hochberg decision ``discovered``."""
-    return (discovered and j.statistic > 0 and j.cv_gain > 0 and j.cv_wins >= MIN_WINS and not f.outside
-            and j.held_out() and j.guarded())
+    return discovered and j.statistic > 0 and not f.outside and j.consistent() and j.held_out() and j.guarded()
 
 
 def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
@@ -128,13 +138,13 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
                 f"over {m} candidates)")
     if f.outside:
         return "fits only with unphysical values: " + "; ".join(f.outside)
-    if j.cv_gain <= 0 or j.cv_wins < MIN_WINS:
-        return (f"held-out condition blocks do not improve on the {where} channels (gain {j.cv_gain:.3g}, "
-                f"{j.cv_wins:.0%} of blocks)")
+    if not j.consistent():
+        return (f"held-out condition blocks do not improve consistently on the {where} channels (gain "
+                f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks)")
     per = j.val_gain / max(j.n_val, 1)
     if j.val_gain > 0 and not j.held_out():
         return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "
-                f"than the baseline by {per:.3g} per sample (noise units), within the {j.spread:.3g} by which the "
+                f"than the baseline by {per:.3g} per sample (noise units), within {SPREAD_Z:g} × the {j.spread:.3g} by which the "
                 "error it leaves varies from block to block: structural misfit, not this mechanism")
     if not j.held_out():
         return (f"fitted without the last part of the fitted data, it does not predict that part's {where} "
