@@ -65,7 +65,7 @@ MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
 PLAIN_TOP = 2       # besides the ``top`` by the whitened screening, the best this many by the plain one are fitted
-DRIFT_TOP = 1       # ... and this many by the whitened screening of the drift channels alone
+DRIFT_TOP = 1       # ... and this many by the whitened and this many by the plain screening of the drift alone
 
 
 @dataclass
@@ -207,20 +207,21 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         # fitted too, so that a slow one (a lagged ambient, a chiller) is judged by the same tests
         plain = screening.prepare(base, measured, sigma, kinds, channels, rows, blocks,
                                   noise=NoiseModel.white(len(channels)))
-        by_plain = sorted(((screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
-                                                              for c in v]).dsse_bal, mid)
-                           for mid, v in singles.items()), reverse=True)
+        plain_best = {mid: screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
+                                                            for c in v]) for mid, v in singles.items()}
+        by_plain = sorted(((c.dsse_bal, mid) for mid, c in plain_best.items()), reverse=True)
         have = {c.mechanism for c in ranked}
         extra = [c for gain, mid in by_plain[:PLAIN_TOP] for c in per_mech
                  if c.mechanism == mid and mid not in have and gain > 0 and c.dsse_bal > 0]
         ranked += extra
-        # ... and the one whose response explains most of the drift channels' whitened residual alone
+        # ... and the ones whose response explains most of the drift channels' residual alone, whitened and plain
         drift_groups = np.array([n != "temperatures" for n in screen.group_names])
-        have = {c.mechanism for c in ranked}
-        by_drift = sorted((c for c in per_mech if c.mechanism not in have and c.group_gain is not None
-                           and float(c.group_gain[drift_groups].sum()) > 0),
-                          key=lambda c: -float(c.group_gain[drift_groups].sum()))
-        ranked += by_drift[:DRIFT_TOP]
+        for gains in ({c.mechanism: c.group_gain for c in per_mech}, {k: c.group_gain for k, c in plain_best.items()}):
+            have = {c.mechanism for c in ranked}
+            by_drift = sorted((c for c in per_mech if c.mechanism not in have and gains[c.mechanism] is not None
+                               and float(gains[c.mechanism][drift_groups].sum()) > 0),
+                              key=lambda c: -float(gains[c.mechanism][drift_groups].sum()))
+            ranked += by_drift[:DRIFT_TOP]
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w

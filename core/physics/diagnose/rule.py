@@ -117,9 +117,9 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
             else 0.0
 
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
-                  cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()), spread(judged),
-                  float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard), len(val_rows), judged,
-                  len(per_block))
+                  cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
+                  spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
+                  len(val_rows), judged, len(per_block))
 
 
 def passes(f, j: Judged, discovered: bool) -> bool:
@@ -144,8 +144,8 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
     per = j.val_gain / max(j.n_val, 1)
     if j.val_gain > 0 and not j.held_out():
         return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "
-                f"than the baseline by {per:.3g} per sample (noise units), within {SPREAD_Z:g} × the {j.spread:.3g} by which the "
-                "error it leaves varies from block to block: structural misfit, not this mechanism")
+                f"than the baseline by {per:.3g} per sample (noise units), within {SPREAD_Z:g} × {j.spread:.3g}, by "
+                "which the error it leaves varies from block to block: structural misfit, not this mechanism")
     if not j.held_out():
         return (f"fitted without the last part of the fitted data, it does not predict that part's {where} "
                 f"channels better than the baseline (noise-weighted gain {j.val_gain:.3g} of {j.val_base:.3g})")

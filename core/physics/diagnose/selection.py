@@ -10,8 +10,9 @@ Bonferroni level α/m over the m screened candidates.
 The calibration search minimises its own objective (each channel weighted by the larger of its noise and
 its misfit at the start), not this statistic, and on some recordings ends where the statistic is worse than
 at the start it was given (the screening's linearised amplitude). The start, with only the linear parameters
-solved, is therefore scored too and the better of the two by the balanced statistic is kept (the search
-result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
+solved, is therefore scored too and the better of the two is kept, by the whitened statistic on the channels
+the candidate is judged on (:mod:`.rule`: the drift channels when its response reaches them), else balanced (the
+search result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
 parameters its search leaves fixed (the slow mode's conductance) is fitted from two starts, those at their
 default and at the screening's temperature amplitude, and the better is kept alike.
 
@@ -156,12 +157,16 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     displacement channels (bool per channel) for ``val_disp``; ``noise`` whitens the residuals of the fitted
     rows before their sums of squares are compared (:mod:`.noise`; None: white, in units of ``sigma``).
     """
+    judged = None
+    if displacement is not None:  # the fit kept is the better one on the channels it is judged on (:mod:`.rule`)
+        reach = np.abs(cand.response).max(axis=0) > 1e-9
+        judged = displacement if (reach & displacement).any() else (~displacement & reach)
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
-                  blocks, max_evaluations, level, intervals=True, noise=noise)
+                  blocks, max_evaluations, level, intervals=True, noise=noise, judged=judged)
     if validation is not None:
         inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario,
                      channels, measured, sigma, weights, validation.base_readings, validation.inner, None,
-                     max_evaluations, level, intervals=False, noise=noise)
+                     max_evaluations, level, intervals=False, noise=noise, judged=judged)
         d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
@@ -199,7 +204,8 @@ def _squares(resid: np.ndarray, noise: NoiseModel | None, nuisance: list[np.ndar
 
 
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
-         max_evaluations, level, intervals: bool, noise: NoiseModel | None = None) -> Fitted:
+         max_evaluations, level, intervals: bool, noise: NoiseModel | None = None,
+         judged: np.ndarray | None = None) -> Fitted:
     base_nuisance = baseline_of(base, scenario, channels, measured, rows, sigma).nuisance if noise else None
     d0 = _squares(((measured - base_readings) / sigma)[rows], noise, base_nuisance, rows)
     best = None
@@ -216,10 +222,12 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
             refit = baseline_of(res.network, scenario, channels, measured, rows, sigma)
             readings = refit.readings
             d1 = _squares(((measured - readings) / sigma)[rows], noise, refit.nuisance, rows)
-            dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
-            if best is None or dsse_bal > best[3]:
-                best = (res, readings, d1, dsse_bal, declared)
-    res, readings, d1, dsse_bal, declared = best
+            drop = d0.sum(axis=0) - d1.sum(axis=0)
+            dsse_bal = float(drop @ weights)
+            key = dsse_bal if judged is None else float(drop[judged].sum())
+            if best is None or key > best[5]:
+                best = (res, readings, d1, dsse_bal, declared, key)
+    res, readings, d1, dsse_bal, declared, _ = best
     dsse = float(d0.sum() - d1.sum())
     dof = max(len(declared), 1)
     values = res.network.parameters()
