@@ -22,7 +22,7 @@ Pipeline (:func:`diagnose`)::
                   bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
                   and, fitted again without the inner validation block (the last ~20 % of the screening rows,
                   cut at a condition boundary), it predicts that block better than the baseline refitted alike
-                  by more per sample than two standard errors of the block-to-block spread of the error it
+                  by more per sample than one standard error of the block-to-block spread of the error it
                   leaves there (the scale of the structural misfit on this machine, in its own units), without
                   making the other channels worse than their own spread; of those passing, one judged on the
                   drift comes first. Then screen again on the augmented network (forward selection) until

@@ -33,7 +33,7 @@ from scipy import stats
 
 from thermodrift.core.physics.diagnose.screening import cv_of
 
-SPREAD_Z = 2.0     # held-out gain per sample over this many standard errors of the block-to-block spread
+SPREAD_Z = 1.0     # held-out gain per sample over this many standard errors of the block-to-block spread
 GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-out block (share of their error) ...
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
