@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import tempfile
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +41,9 @@ def training_frame(result) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(inputs, targets) of the refit's training rows: the model's input columns with their roles in
     ``attrs["roles"]``, and the displacement targets (µm)."""
     rec, spec, model = result.recording, result.spec, result.model
-    fold = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(rec)[-1]
+    with warnings.catch_warnings():  # the job has already warned about a paper protocol; say it once
+        warnings.simplefilter("ignore", UserWarning)
+        fold = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(rec)[-1]
     columns = [str(c) for c in model.feature_names_in_]
     X = rec.data[columns].iloc[fold.train]
     X.attrs["roles"] = {c: rec.channels[c].role for c in columns if c in rec.channels}

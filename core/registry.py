@@ -83,6 +83,11 @@ class Registry:
                 f"and by {origin} ({module}); rename one of them")
         self.components[kind][name] = Component(kind, name, factory, origin, module)
 
+    def params(self, kind: str, name: str) -> list[str] | None:
+        """The keyword parameters of component ``name`` (see :func:`parameters`); None when unknown or open."""
+        found = self.components.get(kind, {}).get(name)
+        return parameters(found.factory) if found else None
+
     def registrar(self, origin: str, module: str = "<unknown>") -> "Registrar":
         """What a plugin's hook receives: this registry's doors, bound to the plugin's origin."""
         return Registrar(self, origin, module)
@@ -167,6 +172,17 @@ def accepts(factory: Callable[..., Any], param: str) -> bool:
     except (TypeError, ValueError):
         return True
     return param in sig.parameters or any(p.kind is p.VAR_KEYWORD for p in sig.parameters.values())
+
+
+def parameters(factory: Callable[..., Any]) -> list[str] | None:
+    """The keyword parameters of ``factory``, sorted; None when it takes ``**kwargs`` or has no signature."""
+    try:
+        signature = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return None
+    if any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values()):
+        return None
+    return sorted(n for n, p in signature.parameters.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY))
 
 
 def with_seed(factory: Callable[..., Any], params: dict[str, Any], seed: int) -> dict[str, Any]:
@@ -268,9 +284,15 @@ class Listing:
     searchpaths: list[str]
     failures: dict[str, str]
 
+    parameters: dict[str, dict[str, list[str] | None]] = field(default_factory=dict)
+
     def names(self, kind: str) -> list[str]:
         """Sorted component names of ``kind``."""
         return list(self.components.get(kind, []))
+
+    def params(self, kind: str, name: str) -> list[str] | None:
+        """The keyword parameters of component ``name`` (see :func:`parameters`); None when unknown or open."""
+        return self.parameters.get(kind, {}).get(name)
 
 
 # Listing the components means importing every plugin, and plugins import scikit-learn, scipy and pandas
@@ -278,7 +300,7 @@ class Listing:
 # names are kept in a small JSON file, valid while the installed entry points and every file of the plugins'
 # own packages that the load imported are unchanged (same size and modification time). Neither importlib nor
 # pluggy keeps such a listing.
-_CACHE_VERSION = 1
+_CACHE_VERSION = 2
 
 
 def _cache_file(entry_points: list[importlib.metadata.EntryPoint]) -> Path | None:
@@ -315,7 +337,8 @@ def _save_listing(reg: Registry, entry_points: list[importlib.metadata.EntryPoin
         if name.split(".")[0] in tops and path:
             files[path] = _stat(path)
     data = {"entry_points": _described(entry_points), "files": files,
-            "components": {k: reg.names(k) for k in KINDS}, "searchpaths": reg.searchpaths,
+            "components": {k: reg.names(k) for k in KINDS}, "parameters": _parameters(reg),
+            "searchpaths": reg.searchpaths,
             "failures": reg.failures}
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -338,9 +361,13 @@ def listing() -> Listing:
             data = None
         if (data and data.get("entry_points") == _described(entry_points)
                 and all(_stat(path) == stat for path, stat in data["files"].items())):
-            return Listing(data["components"], data["searchpaths"], data["failures"])
+            return Listing(data["components"], data["searchpaths"], data["failures"], data.get("parameters", {}))
     reg = default()
-    return Listing({k: reg.names(k) for k in KINDS}, list(reg.searchpaths), dict(reg.failures))
+    return Listing({k: reg.names(k) for k in KINDS}, list(reg.searchpaths), dict(reg.failures), _parameters(reg))
+
+
+def _parameters(reg: Registry) -> dict[str, dict[str, list[str] | None]]:
+    return {k: {n: parameters(c.factory) for n, c in reg.components[k].items()} for k in KINDS}
 
 
 def names(kind: str) -> list[str]:

@@ -53,12 +53,25 @@ def test_four_runs_started_together_on_a_new_sqlite_study_all_succeed(tmp_path, 
     assert sorted(r.info.status for r in runs) == ["FINISHED"] * 4
 
 
+def _frozen_inside(proc, name: str, storage: str, number: int) -> bool:
+    """Stop ``proc`` (SIGSTOP) and tell whether its trial ``number`` is still RUNNING, read afresh from the storage:
+    then the kill that follows lands inside that trial. Otherwise the trial ended between the poll and the stop,
+    and the process goes on."""
+    os.killpg(proc.pid, signal.SIGSTOP)
+    running = optuna.load_study(study_name=name, storage=storage).get_trials(
+        deepcopy=False, states=(optuna.trial.TrialState.RUNNING,))
+    if number in {t.number for t in running}:
+        return True
+    os.killpg(proc.pid, signal.SIGCONT)
+    return False
+
+
 def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tmp_path, postgres_url, cli):
     storage = postgres_url
     name = f"workers-{uuid.uuid4().hex}"
     tiny_recording(seed=0).write(tmp_path / "tiny.csv", tmp_path / "tiny.yaml")
     # trials long enough (bp, 200 epochs) that the victim spends most of its time inside one, where it is killed
-    args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random",
+    args = ["model=bp", "model.params.trainer.epochs=200", "n_trials=16", "optimizer=random", "optuna.pruner=none",
             f"optuna.storage={storage}", f"optuna.study_name={name}"]
     workers = [_start(cli, tmp_path, args) for _ in range(4)]
     victim, deadline = workers[0], time.time() + 300
@@ -68,10 +81,10 @@ def test_four_workers_on_postgresql_lose_nothing_when_one_is_killed_mid_trial(tm
         except KeyError:
             time.sleep(0.2)
             continue
-        owned = [t for t in study.get_trials(states=(optuna.trial.TrialState.RUNNING,))
+        owned = [t.number for t in study.get_trials(states=(optuna.trial.TrialState.RUNNING,))
                  if t.user_attrs.get("worker", "").split(":")[1:2] == [str(victim.pid)]]
         done = len(study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)))
-        if owned and done >= 1:
+        if owned and done >= 1 and _frozen_inside(victim, name, storage, owned[0]):
             break
         time.sleep(0.05)
     assert victim.poll() is None, "the worker to kill ended first:\n" + victim.communicate()[1][-1500:]

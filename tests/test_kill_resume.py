@@ -15,7 +15,7 @@ import mlflow
 import pytest
 
 ARGS = ["run", "dataset=recording_file", "dataset.params.table=tiny.csv", "dataset.params.manifest=tiny.yaml",
-        "progress=false", "model=bp", "model.params.trainer.epochs=30", "optimizer=random"]
+        "progress=false", "model=bp", "model.params.trainer.epochs=100", "optimizer=random"]
 
 
 def _states(db: Path) -> dict[str, int]:
@@ -37,16 +37,25 @@ def _run_states(cwd: Path) -> list[tuple[str, dict]]:
                                                                       output_format="list")]
 
 
+def _second_trial_running(db: Path) -> bool:
+    states = _states(db)
+    return states.get("COMPLETE", 0) >= 1 and states.get("IN_OBJECTIVE", 0) == 1
+
+
 def _kill_mid_trial(cli, cwd: Path, n_trials: int) -> None:
     """Start the job and SIGKILL its process group once a trial completed and the next one is RUNNING."""
     proc = subprocess.Popen([*cli.exe, *ARGS, f"n_trials={n_trials}"], cwd=cwd, env=cli.env(),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     db, deadline = cwd / "thermodrift.optuna.db", time.time() + 240
     while time.time() < deadline and proc.poll() is None:
-        states = _states(db)
-        if states.get("COMPLETE", 0) >= 1 and states.get("IN_OBJECTIVE", 0) == 1:
-            break
+        if _second_trial_running(db):
+            os.killpg(proc.pid, signal.SIGSTOP)  # frozen: the trial cannot end between this check and the kill
+            if _second_trial_running(db):
+                break
+            os.killpg(proc.pid, signal.SIGCONT)
         time.sleep(0.02)
+    # trials of 100 epochs last long enough that the polling above sees the second one running
+    assert proc.poll() is None, f"the job ended before its second trial was seen running: {_states(db)}"
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait()
     states = _states(db)

@@ -57,8 +57,7 @@ def test_selector_search_space_is_tuned_jointly_on_inner_training_rows(monkeypat
             return super()._select(X, y)
 
     reg = registry.load()
-    reg._origin = reg._module = "tests"
-    reg.add("selector", "noting_top_k", Noting)
+    reg.add("selector", "noting_top_k", Noting, origin="tests", module=__name__)
     monkeypatch.setattr(registry, "_DEFAULT", reg)
     rec = tiny_recording()
     spec = JobSpec(dataset="tiny", model="mlr", selector="noting_top_k", optimizer="random", split="chronological",

@@ -86,7 +86,9 @@ HEAVY = ("torch", "mlflow", "hydra", "optuna", "sklearn", "pandas", "thermodrift
 
 
 @pytest.mark.parametrize("argv,message", [(["run", "model=mrl"], "(did you mean 'mlr'?)"),
-                                          (["run", "-m", "n_trial=5"], "(did you mean 'n_trials'?)")])
+                                          (["run", "-m", "n_trial=5"], "(did you mean 'n_trials'?)"),
+                                          (["run", "model=mlr", "model.params.alph=2"],
+                                           "(did you mean 'model.params.alpha'?)")])
 def test_a_typo_is_answered_before_plugins_hydra_mlflow_or_torch_load(tmp_path, argv, message, cli):
     env = cli.env(THERMODRIFT_CACHE_DIR=str(tmp_path / "cache"))
     # the first call after an install loads the plugins once and saves their listing (as `run --help` does)

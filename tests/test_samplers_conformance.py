@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+import warnings
 from pathlib import Path
 
+import optuna
 import pytest
 import yaml
 from optuna.testing.pytest_samplers import BasicSamplerTestCase, RelativeSamplerTestCase, SingleOnlySamplerTestCase
@@ -73,3 +75,37 @@ def test_optimizer_configs_build_their_sampler(config):
     sampler = REGISTRY.create("optimizer", spec["name"], seed=0, n_trials=50, **spec["params"])
     given = {k: v for k, v in spec["params"].items() if v is not None}  # None: derived from the budget
     assert {k: getattr(sampler, k) for k in given} == given
+
+
+OPTUNA_OWN = {"random": lambda seed: optuna.samplers.RandomSampler(seed=seed),
+              "tpe": lambda seed: optuna.samplers.TPESampler(seed=seed, n_startup_trials=10, multivariate=True),
+              "cmaes": lambda seed: optuna.samplers.CmaEsSampler(seed=seed, n_startup_trials=1,
+                                                                 warn_independent_sampling=False),
+              "gp": lambda seed: optuna.samplers.GPSampler(seed=seed, n_startup_trials=10)}
+
+
+def _workers(samplers, rounds: int) -> list[tuple]:
+    """Workers sharing one study, each with its own sampler object, taking turns; every trial's parameters."""
+    storage = optuna.storages.InMemoryStorage()
+    studies = [optuna.create_study(storage=storage, study_name="shared", sampler=s, load_if_exists=True)
+               for s in samplers]
+    for _ in range(rounds):
+        for study in studies:
+            trial = study.ask()
+            x, y = trial.suggest_float("x", -5, 5), trial.suggest_float("y", 1e-3, 1e3, log=True)
+            study.tell(trial, (x - 1) ** 2 + abs(y - 3))
+    return [tuple(sorted(t.params.items())) for t in studies[0].trials]
+
+
+@pytest.mark.parametrize("name", sorted(OPTUNA_OWN))
+def test_optunas_samplers_give_each_worker_its_own_stream(name):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        # three workers built with the same seed (as every worker of a study is) repeat none of their draws
+        shared = _workers([registry.create_sampler(name, seed=7, n_trials=12) for _ in range(3)], rounds=4)
+        assert len(set(shared)) == len(shared) == 12
+        # a lone worker draws exactly Optuna's own sequence for that seed
+        alone = _workers([registry.create_sampler(name, seed=7, n_trials=12)], rounds=12)
+        assert alone == _workers([OPTUNA_OWN[name](7)], rounds=12)
+        if name == "random":  # draws that do not depend on the history: the first worker's are the lone one's
+            assert shared[::3] == alone[:4]

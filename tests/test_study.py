@@ -23,8 +23,7 @@ class Flaky(MLR):
 @pytest.fixture()
 def reg(monkeypatch):
     loaded = registry.load()
-    loaded._origin = loaded._module = "tests"
-    loaded.add("model", "flaky", Flaky)
+    loaded.add("model", "flaky", Flaky, origin="tests", module=__name__)
     monkeypatch.setattr(registry, "_DEFAULT", loaded)
     return loaded
 
@@ -96,6 +95,31 @@ def test_the_study_budget_reaches_samplers_with_schedules(reg, rec, optimizer):
     result = Job(spec(optimizer=optimizer, n_trials=7)).run(rec)
     assert result.study.sampler.n_trials == 7
     assert registry.create_sampler(optimizer, seed=0, n_trials=9).n_trials == 9
+
+
+@pytest.mark.parametrize("pruner, kind", [("median", optuna.pruners.MedianPruner), ("none", optuna.pruners.NopPruner),
+                                           ("hyperband", optuna.pruners.HyperbandPruner)])
+def test_the_pruner_setting_reaches_the_study(reg, rec, pruner, kind):
+    assert isinstance(Job(spec(pruner=pruner, n_trials=2)).run(rec).study.pruner, kind)
+
+
+def test_a_misspelt_pruner_is_bad_input_before_any_work(reg, rec):
+    from thermodrift.core.errors import InputError
+
+    with pytest.raises(InputError, match="did you mean 'median'") as err:
+        Job(spec(pruner="medain")).run(object())  # not a recording: nothing is read before the check
+    assert "\n" not in str(err.value)
+
+
+def test_a_paper_protocol_job_and_its_export_warn_once(reg, rec):
+    import warnings
+
+    from thermodrift.core import deployment
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        deployment.limits(Job(spec(split="shuffled", n_trials=2)).run(rec))
+    assert sum("paper protocol" in str(w.message) for w in caught) == 1
 
 
 def test_unknown_split_is_bad_input(reg, rec):

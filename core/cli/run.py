@@ -110,6 +110,7 @@ def spec_from_config(cfg: DictConfig) -> JobSpec:
         split=c["split"]["kind"], split_params=c["split"].get("params") or {},
         targets=c.get("targets"), input_roles=tuple(c["input_roles"]), baselines=tuple(c["baselines"]),
         seed=int(c["seed"]), n_trials=int(c["n_trials"]), timeout_s=c["optuna"].get("timeout_s"),
+        pruner=str(c["optuna"].get("pruner") or "median"),
         storage=c["optuna"].get("storage"), study_name=c["optuna"].get("study_name"), progress=bool(c["progress"]),
         threads=int(c["threads"]),
     )

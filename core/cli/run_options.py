@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import difflib
 import importlib.resources
-import inspect
 import re
 import textwrap
 from dataclasses import dataclass
@@ -151,9 +150,9 @@ def split_flags(args: list[str]) -> tuple[list[str], list[str]]:
 def check_overrides(overrides: list[str], reg: registry.Registry | registry.Listing) -> None:
     """Raise a one-line :class:`InputError` for an unknown group option or an unknown key, with the closest
     right one ("did you mean 'mlr'?") and the choices. Additions (``+key``), deletions (``~key``), Hydra's
-    own settings and sweep expressions (``range(...)``, globs) are left to Hydra. With a
-    :class:`~thermodrift.core.registry.Listing` (names only, no plugin imported) a component's parameter names
-    are not checked; with the loaded :class:`~thermodrift.core.registry.Registry` they are."""
+    own settings and sweep expressions (``range(...)``, globs) are left to Hydra. A component's parameter names are
+    checked from a :class:`~thermodrift.core.registry.Listing` (no plugin imported) as from the loaded
+    :class:`~thermodrift.core.registry.Registry`."""
     groups = {g: options(g, reg) for g in GROUPS}
     given = {k: v for k, v in (o.split("=", 1) for o in overrides if "=" in o) if k in groups}
     chosen = {**defaults(), **_preset_groups(given.get("experiment", defaults().get("experiment"))), **given}
@@ -208,17 +207,10 @@ def _component_name(group: str, option: str, reg: registry.Registry | registry.L
 
 
 def _constructor_params(kind: str, name: str, reg: registry.Registry | registry.Listing) -> set[str] | None:
-    """The keyword parameters of a component's factory; None when unknown, open (``**kwargs``) or not loaded
-    (a :class:`~thermodrift.core.registry.Listing` holds names only)."""
-    if not isinstance(reg, registry.Registry):
-        return None
-    try:
-        signature = inspect.signature(reg.get(kind, name).factory)
-    except Exception:  # an unknown name is reported by Hydra or the job; an opaque factory is not checked
-        return None
-    if any(p.kind is p.VAR_KEYWORD for p in signature.parameters.values()):
-        return None
-    return {n for n, p in signature.parameters.items() if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)}
+    """The keyword parameters of a component's factory (kept in the saved listing too, so a misspelt parameter is
+    answered without importing a plugin); None when unknown or open (``**kwargs``)."""
+    params = reg.params(kind, name)
+    return None if params is None else set(params)
 
 
 def _presets() -> dict[str, dict[str, Any]]:
