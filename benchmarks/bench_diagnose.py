@@ -133,8 +133,15 @@ def run_case(case, seed: int) -> dict:
            "param_error": _param_error(case, d.findings[0]) if d.findings and top == case.hidden else None,
            "localisation": _localisation(case, d.findings[0]) if d.findings and top == case.hidden else None,
            "equivalent": any(r["mechanism"] == case.hidden and r["reason"].startswith("not identifiable")
-                             for r in d.rejected)}
+                             for r in d.rejected),
+           "trace": _trace(d)}
     return row
+
+
+def _trace(d) -> list[dict]:
+    """Every fitted candidate's statistics (JSON-ready), for reading why a case went the way it did."""
+    return [{k: (round(float(v), 4) if isinstance(v, (float, np.floating)) else v) for k, v in t.items()}
+            for t in d.trace]
 
 
 def run_independent(gen, seed: int, folder: Path) -> dict:
@@ -166,14 +173,13 @@ def run_independent(gen, seed: int, folder: Path) -> dict:
             "localisation": None, "equivalent": why.startswith("not identifiable"),
             "share": gen.share, "misfit_over_noise": fit_rmse / noise, "heldout_over_fit": before / max(fit_rmse, 1e-9),
             "acf1": float(np.dot(r[1:], r[:-1]) / max(np.dot(r, r), 1e-300)), "why_not_hidden": why,
-            "verdict": doc["verdict"], "trace": [{k: (round(v, 4) if isinstance(v, float) else v)
-                                                  for k, v in t.items()} for t in d.trace]}
+            "verdict": doc["verdict"], "trace": _trace(d)}
 
 
 def independent_cases(args):
     """(seed, hidden, constant drivers) of the independent generator's dev or sealed half."""
     per, nulls = (3, 20) if args.full else (1, 6)
-    return independent.case_list(args.sealed, per, nulls)
+    return independent.case_list(args.sealed, per, nulls, args.sealed_base if args.sealed else None)
 
 
 def fl_cases(data: Path, seed: int, done: dict | None = None, results: Path | None = None,
@@ -331,13 +337,16 @@ def main(argv: list[str] | None = None) -> int:
                     help="library: the library's own networks; fd: the independent distributed-parameter "
                          "generator; lumped: the independent lumped network (another topology per seed)")
     ap.add_argument("--sealed", action="store_true", help="with --generator fd: the sealed half (seeds ≥ 1000)")
+    ap.add_argument("--sealed-base", type=int, default=independent.SEALED_FROM, metavar="SEED",
+                    help="with --sealed: the first seed of the sealed range (a multiple of 1000: 1000 is the range "
+                         "looked at once; 3000 is fresh)")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--timing", action="store_true", help="with --generator fd|lumped: only the two 30 h recordings "
                     "at 15 s (run time at the target's sampling; --full includes them)")
     ap.add_argument("--fl-part", metavar="K/N",
                     help="with --fl: run only every N-th FL_THERMAL diagnosis from the K-th")
-    ap.add_argument("--part", metavar="K/N", help="with --generator fd|lumped: run only every N-th case from the K-th "
+    ap.add_argument("--part", metavar="K/N", help="run only every N-th case from the K-th "
                     "(1-based), for N processes side by side (each with its own --results; --pool joins them)")
     ap.add_argument("--pool", nargs="+", type=Path, metavar="ROWS",
                     help="run nothing: one report over the finished cases of these --results files (generators pooled)")
@@ -370,6 +379,9 @@ def main(argv: list[str] | None = None) -> int:
         cases += [concealed_case(physics.load_network(m), h, 9000 + off + i, registry=reg, dt_s=15.0)
                   for i, (m, h) in enumerate([("vmc_spindle_s2", "slow_structural_mode"),
                                               ("motorized_spindle_s3", "coolant_coupling")])]
+    if args.part:
+        k, n = (int(v) for v in args.part.split("/"))
+        cases = cases[k - 1::n]
     for case in cases:
         if case.name in done:
             rows.append(done[case.name])
@@ -402,7 +414,7 @@ def main_independent(args, done: dict, start: float) -> int:
     if args.timing:
         specs = []
     if args.full or args.timing:  # run time at the target's sampling: two 30 h recordings at 15 s
-        base = independent.SEALED_FROM if args.sealed else 0
+        base = args.sealed_base if args.sealed else 0
         specs += [(base + 900, "coolant_coupling", False, 15.0), (base + 901, "slow_structural_mode", False, 15.0)]
     if args.only:
         specs = [x for x in specs if (x[1] or "none") in args.only]
@@ -431,9 +443,9 @@ def main_independent(args, done: dict, start: float) -> int:
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
         return 2
     fl = fl_cases(args.data, args.seed, done, args.results, args.fl_part) if args.fl else []
-    half = "sealed" if args.sealed else "development"
+    half = f"sealed half from seed {args.sealed_base}" if args.sealed else "development half"
     size = "full" if args.full else "default"
-    print(f"# diagnose benchmark, independent generator {args.generator} ({half} half, {size}: step 120 s, "
+    print(f"# diagnose benchmark, independent generator {args.generator} ({half}, {size}: step 120 s, "
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(f"Amplitude rule: {independent.AMPLITUDE_RULE}.\n")
     print(report(rows, fl, args) if rows else report_fl(fl))

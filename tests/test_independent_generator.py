@@ -92,6 +92,10 @@ def test_dev_and_sealed_seeds_are_disjoint_and_cover_every_mechanism():
     hidden = [h for _, h, _ in sealed if h]
     assert len(hidden) >= 30 and all(hidden.count(m) >= 2 for m in independent.HIDDEN)
     assert sum(h is None for _, h, _ in sealed) >= 20
+    fresh = independent.case_list(True, 3, 20, base=3000)  # a fresh sealed range: disjoint from both
+    seeds = {s for s, _, _ in fresh}
+    assert seeds.isdisjoint({s for s, _, _ in dev} | {s for s, _, _ in sealed}) and min(seeds) == 3000
+    assert [h for _, h, _ in fresh] == [h for _, h, _ in sealed]
 
 
 def test_generator_shares_no_code_with_the_library():

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 
 import numpy as np
@@ -177,3 +178,19 @@ def test_mechanism_options_and_errors(reg, base):
         reg.create("mechanism", "slow_structural_mode").apply(base))
     assert {"slow_structure", "slow_structure_2"} <= set(two.node_names)
     physics.CompiledNetwork(two)  # still a valid network
+
+
+def test_ambient_coupling_has_places_on_a_network_whose_every_node_is_a_bearing(reg, base):
+    cls = reg.get("mechanism", "ambient_coupling").factory
+    all_bearing = base.replace(*[dataclasses.replace(n, group="bearing") for n in base.nodes])
+    places = cls.places(all_bearing)
+    assert places and all(p["nodes"][0] in all_bearing.nodes_in("bearing") for p in places)
+    coupled = cls(**places[0]).apply(all_bearing, G_W_K=5.0)
+    assert len(coupled.edges) == len(all_bearing.edges) + 1
+
+
+def test_centrifugal_growth_of_several_um_is_within_its_physical_bounds(reg, base):
+    cls = reg.get("mechanism", "centrifugal_growth").factory
+    _, free = cls(axes=["z"]).declare(base, um_at_ref=1.0)
+    assert all(fp.low <= -8.7 and fp.high >= 8.7 for fp in free)  # large spindles near top speed reach that
+    assert all(fp.high <= 20.0 for fp in free)

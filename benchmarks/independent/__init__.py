@@ -72,10 +72,13 @@ class Generated:
         return table, man
 
 
-def case_list(sealed: bool, per_mechanism: int, nulls: int) -> list[tuple[int, str | None, bool]]:
+def case_list(sealed: bool, per_mechanism: int, nulls: int,
+              base: int | None = None) -> list[tuple[int, str | None, bool]]:
     """(seed, hidden, constant drivers) of the development (seeds < 1000) or sealed (≥ 1000) half: hidden
-    mechanisms in turn, then nulls (every second with constant coolant, cutting and feed channels)."""
-    base = SEALED_FROM if sealed else 0
+    mechanisms in turn, then nulls (every second with constant coolant, cutting and feed channels). ``base``
+    (a multiple of 1000, ≥ 1000) starts another sealed range, never run before."""
+    if base is None:
+        base = SEALED_FROM if sealed else 0
     out: list[tuple[int, str | None, bool]] = []
     for i in range(per_mechanism * len(HIDDEN)):
         out.append((base + i, HIDDEN[i % len(HIDDEN)], False))

@@ -1,6 +1,7 @@
 """ambient_coupling — structure exchanging heat with the room air (extra convection to ambient).
 
-Adds a convection edge to ``ambient`` on each target node (default: the structure nodes, else the housing),
+Adds a convection edge to ``ambient`` on each target node (default: the structure nodes, else the housing;
+places: the structure, housing, table and motor nodes, else the bearing nodes),
 sharing ``G_W_K`` equally.
 
 Parameters: ``G_W_K`` = 3.0 [0, 50] W/K (neutral 0).
@@ -35,7 +36,10 @@ class AmbientCoupling(Mechanism):
 
     @classmethod
     def places(cls, network):
-        return [{"nodes": [n]} for n in nodes_of(network, ("structure", "housing", "table", "motor"))] or [{}]
+        # a network whose every node rises with the spindle (all labelled ``bearing``) still has surfaces in the
+        # room air: its nodes are the places then
+        nodes = nodes_of(network, ("structure", "housing", "table", "motor")) or nodes_of(network, ("bearing",))
+        return [{"nodes": [n]} for n in nodes] or [{}]
 
     def _declare(self, before, after, p, o):
         edges = added(before, after, "edges")

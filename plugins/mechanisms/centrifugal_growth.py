@@ -3,7 +3,8 @@
 Adds c·(n/n_ref)² µm to the outputs along ``axes`` (default ``z``, else the first output): an instantaneous
 step at every speed change, with no thermal lag (0.3–1 µm in FL_THERMAL).
 
-Parameters: ``um_at_ref`` = 1.0 [−5, 5] µm at the reference speed (neutral 0).
+Parameters: ``um_at_ref`` = 1.0 [−20, 20] µm at the reference speed (neutral 0): 0.3–1 µm on FL_THERMAL, and
+several µm up to about 15 µm on large high-speed (HSK) spindles near their top speed.
 Direction: displacement jumps by c·(n₂² − n₁²)/n_ref² at each speed change.
 Residual signature when missing: instantaneous step at speed changes ∝ n², no lag. Test: step heights vs n².
 """
@@ -13,10 +14,12 @@ import dataclasses
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parameter, changed_outputs, target_outputs
 
+LIMIT_UM = 20.0  # physical bound of the growth at the reference speed (µm), either sign
+
 
 class CentrifugalGrowth(Mechanism):
     id = "centrifugal_growth"
-    parameters = (Parameter("um_at_ref", 1.0, -5.0, 5.0, "um", 0.0, "growth at the reference speed"),)
+    parameters = (Parameter("um_at_ref", 1.0, -LIMIT_UM, LIMIT_UM, "um", 0.0, "growth at the reference speed"),)
     options = {"axes": ("z",)}
     drivers = ("speed",)
     signature = "instantaneous step at speed changes ∝ n², no lag"
@@ -36,7 +39,7 @@ class CentrifugalGrowth(Mechanism):
 
     def _declare(self, before, after, p, o):
         outs = changed_outputs(before, after)
-        return [FreeParameter("um_at_ref", (f"outputs.{n}.centrifugal_um",), p["um_at_ref"], -5.0, 5.0, "um",
+        return [FreeParameter("um_at_ref", (f"outputs.{n}.centrifugal_um",), p["um_at_ref"], -LIMIT_UM, LIMIT_UM, "um",
                           scale="projected", offset=before.output(n).centrifugal_um) for n in outs]
 
 

@@ -14,17 +14,19 @@ Pipeline (:func:`diagnose`)::
                   linearised, whitened response (:mod:`.screening`); mechanisms whose drivers are missing or
                   constant are skipped with that reason
     fit           the best ``top`` mechanisms by re-simulation (:mod:`.selection`)
-    accept        the best fitted one if its whitened likelihood ratio is a discovery by Benjamini–Hochberg over
+    accept        a fitted candidate is judged on the channels it reaches (:mod:`.rule`): the drift channels when
+                  its response reaches them (the temperatures only guard), else the temperature channels it
+                  changes. There its whitened likelihood ratio must be a discovery by Benjamini–Hochberg over
                   the round's screened candidates at the round's level (α/2, α/4, … over rounds: the
                   false-discovery level stays below α in all), its fitted parameters lie within their physical
                   bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
                   and, fitted again without the inner validation block (the last ~20 % of the screening rows,
                   cut at a condition boundary), it predicts that block better than the baseline refitted alike
-                  by more per sample than the error it leaves varies from block to block (standard error over
-                  the condition blocks: the scale of the structural misfit on this machine, in its own units)
-                  and its drift no worse than 10 % or than 3 standard deviations of noise (noise-weighted sum
-                  of squares of the displacement channels); then screen again on the augmented network (forward
-                  selection) until nothing passes
+                  by more per sample than one standard error of the block-to-block spread of the error it
+                  leaves there (the scale of the structural misfit on this machine, in its own units), without
+                  making the other channels worse than their own spread; of those passing, one judged on the
+                  drift comes first. Then screen again on the augmented network (forward selection) until
+                  nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit; a parameter whose interval is not finite, misses its
@@ -51,7 +53,7 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
-from thermodrift.core.physics.diagnose import adequacy, screening, selection
+from thermodrift.core.physics.diagnose import adequacy, rule, screening, selection
 from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
@@ -63,8 +65,7 @@ MIN_HOURS = 4.0
 MIN_SAMPLES = 200
 FINAL_SHARE = 0.2
 PLAIN_TOP = 2       # besides the ``top`` by the whitened screening, the best this many by the plain one are fitted
-VAL_DRIFT_SLACK = 0.10  # ... and leaves the inner validation block's drift at most this much worse, or within
-VAL_DRIFT_Z = 3.0       # this many standard deviations of a noise-only sum of squares (χ², 2n variance)
+DRIFT_TOP = 1       # ... and this many by the whitened and this many by the plain screening of the drift alone
 
 
 @dataclass
@@ -206,13 +207,21 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         # fitted too, so that a slow one (a lagged ambient, a chiller) is judged by the same tests
         plain = screening.prepare(base, measured, sigma, kinds, channels, rows, blocks,
                                   noise=NoiseModel.white(len(channels)))
-        by_plain = sorted(((screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
-                                                              for c in v]).dsse_bal, mid)
-                           for mid, v in singles.items()), reverse=True)
+        plain_best = {mid: screening.best_compound(plain, [screening.score(plain, dataclasses.replace(c), m)
+                                                            for c in v]) for mid, v in singles.items()}
+        by_plain = sorted(((c.dsse_bal, mid) for mid, c in plain_best.items()), reverse=True)
         have = {c.mechanism for c in ranked}
         extra = [c for gain, mid in by_plain[:PLAIN_TOP] for c in per_mech
                  if c.mechanism == mid and mid not in have and gain > 0 and c.dsse_bal > 0]
         ranked += extra
+        # ... and the ones whose response explains most of the drift channels' residual alone, whitened and plain
+        drift_groups = np.array([n != "temperatures" for n in screen.group_names])
+        for gains in ({c.mechanism: c.group_gain for c in per_mech}, {k: c.group_gain for k, c in plain_best.items()}):
+            have = {c.mechanism for c in ranked}
+            by_drift = sorted((c for c in per_mech if c.mechanism not in have and gains[c.mechanism] is not None
+                               and float(gains[c.mechanism][drift_groups].sum()) > 0),
+                              key=lambda c: -float(gains[c.mechanism][drift_groups].sum()))
+            ranked += by_drift[:DRIFT_TOP]
         weights = np.zeros(len(channels))
         for w, members in zip(screen.weights, screen.groups):
             weights[members] = w
@@ -233,33 +242,45 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        for f in fitted:  # how much the error the candidate leaves varies from block to block
-            f.spread = _block_spread(measured, f.readings, sigma, weights, rows, blocks, val_rows)
+        group_is_drift = np.array([n != "temperatures" for n in screen.group_names])
+        judged = [rule.judge(f, displacement, group_is_drift, measured, sigma, rows, blocks, val_rows)
+                  for f in fitted]
+        for f, j in zip(fitted, judged):
+            f.spread = j.spread
         # Benjamini–Hochberg over every candidate screened this round: the fitted ones with their re-simulated
-        # whitened likelihood ratio, the others with their screening one
+        # whitened likelihood ratio on their judged channels (:mod:`.rule`), the others with their screening one
         fitted_ids = {id(f.candidate) for f in fitted}
-        pvals = [f.p_value for f in fitted] + [c.p_value for c in cands if id(c) not in fitted_ids]
+        pvals = [j.p_value for j in judged] + [c.p_value for c in cands if id(c) not in fitted_ids]
         discovered = benjamini_hochberg(pvals, level)[:len(fitted)]
-        test = {"test": "likelihood ratio on AR-whitened residuals (noise model from the baseline's residual), "
-                        "Benjamini–Hochberg over the round's candidates", "level": level, "candidates": m}
+        test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
+                        "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
+                "candidates": m}
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "remaining_block_spread": f.spread} for f, d in zip(fitted, discovered)]
-        passing = [f for f, d in zip(fitted, discovered) if d and f.dsse_bal > 0 and f.candidate.cv_gain > 0
-                   and f.candidate.cv_wins >= 0.5 and not f.outside and _validates(f, len(val_rows))]
+            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": rule.passes(f, j, d),
+            **j.as_dict()} for f, j, d in zip(fitted, judged, discovered)]
+        ok = [rule.passes(f, j, d) for f, j, d in zip(fitted, judged, discovered)]
+        # a candidate judged on the drift channels comes first: the drift is what a compensation predicts
+        lead = [i for i, o in enumerate(ok) if o and judged[i].group == "drift"] or [i for i, o in enumerate(ok) if o]
+        passing = [fitted[i] for i in lead]
         if not passing:
-            for f, d in zip(fitted, discovered):
-                rejected.append({"mechanism": f.candidate.mechanism,
-                                 "reason": _why_not(f, d, level, m, len(val_rows))})
+            for f, j, d in zip(fitted, judged, discovered):
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": rule.why_not(f, j, d, level, m)})
             break
-        win = selection.parsimonious(passing, level)
+        by_judged = [dataclasses.replace(fitted[i], dsse_bal=judged[i].statistic, block_raw=_judged_blocks(
+            fitted[i], judged[i]), block_bal=_judged_blocks(fitted[i], judged[i]))
+            for i in lead]
+        win = passing[by_judged.index(selection.parsimonious(by_judged, level))]
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
         inclusion = selection.bootstrap_inclusion(fitted, int(blocks.max()) + 1, m, level, bootstrap, seed + round_)
-        win = selection.identified(win, fit_rec, fit_evaluations)
+        jw = judged[fitted.index(win)]
+        win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
+                                  p_value=jw.p_value)
+        test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
         findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
                                  kinds, channels, windows, t, test))
         for f in rivals:
@@ -269,7 +290,8 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                        f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
         for f, d in zip(fitted, discovered):
             if f is not win and f not in rivals and f.candidate is not win.candidate:
-                reason = (_why_not(f, d, level, m, len(val_rows)) if f not in passing else
+                j = judged[fitted.index(f)]
+                reason = (rule.why_not(f, j, d, level, m) if f not in passing else
                           f"explains less than {win.candidate.mechanism} "
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
@@ -286,16 +308,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                      scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
 
 
-def _block_spread(measured, readings, sigma, weights, rows, blocks, val_rows) -> float:
-    """Standard error of a model's mean balanced squared error (noise units, per sample) over one held-out block
-    as large as the validation block: the standard deviation of its per-block means over the condition blocks
-    of the screening rows, over √(blocks in the validation block)."""
-    sq = (((measured - readings) / sigma)[rows]) ** 2 @ weights
-    nb = int(blocks.max()) + 1
-    counts = np.bincount(blocks, minlength=nb)
-    means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
-    k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
-    return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
+def _judged_blocks(f, j) -> np.ndarray:
+    """Per condition block the drop of the whitened sum of squares on the candidate's judged channels."""
+    return f.block_drop[:, j.channels].sum(axis=1)
 
 
 def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
@@ -305,37 +320,6 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
             seen.add(r["mechanism"])
             out.append(r)
     return out
-
-
-def _validates(f, n_val: int, gate: bool = True) -> bool:
-    """The fit made without the inner validation block predicts it better (balanced) by more, per sample, than
-    the error it leaves varies from block to block (``f.spread``: :func:`_block_spread`; the structural misfit
-    no candidate explains sets the scale, in the machine's own units; not with ``gate`` False), and its drift
-    is no worse than ``VAL_DRIFT_SLACK`` of the baseline's or than noise alone would make it (at
-    the noise floor the sum of squares of n values varies by √(2n) noise units)."""
-    slack = max(VAL_DRIFT_SLACK * f.val_disp0, VAL_DRIFT_Z * np.sqrt(2.0 * f.val_disp_n))
-    spread = f.spread if gate else 0.0
-    return f.val_bal > spread * max(n_val, 1) and f.val_bal > 0 and not f.val_disp < -slack
-
-
-def _why_not(f, discovered: bool, level: float, m: int, n_val: int) -> str:
-    c = f.candidate
-    if f.dsse <= 0 or f.dsse_bal <= 0:
-        return "re-simulated fit does not lower the (whitened) misfit"
-    if not discovered:
-        return (f"not significant: whitened likelihood ratio {f.dsse:.3g}, p = {f.p_value:.2g}, not a discovery at "
-                f"false-discovery level {level:g} (Benjamini–Hochberg over {m} candidates)")
-    if f.outside:
-        return "fits only with unphysical values: " + "; ".join(f.outside)
-    if c.cv_gain <= 0 or c.cv_wins < 0.5:
-        return f"held-out condition blocks do not improve (gain {c.cv_gain:.3g}, {c.cv_wins:.0%} of blocks)"
-    if _validates(f, n_val, gate=False):
-        return ("fitted without the last part of the fitted data, it predicts that part better than the baseline "
-                f"by {f.val_bal / max(n_val, 1):.3g} per sample (noise units), within the {f.spread:.3g} by which "
-                "the error it leaves varies from block to block: structural misfit, not this mechanism")
-    return ("fitted without the last part of the fitted data, it does not predict that part better than the "
-            f"baseline (noise-weighted gain {f.val_bal:.3g}; on the drift channels {f.val_disp:.3g} of "
-            f"{f.val_disp0:.3g})")
 
 
 def _experiment(a: str, b: str) -> str:

@@ -186,19 +186,25 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
         lines += ["", "Where: " + "; ".join(f"{w['channel']} in {name}" for w, name in zip(f["where"], f["_windows"]))
                   if f["where"] else "Where: spread over the whole recording.", ""]
     lines += ["## Candidates fitted by re-simulation", "",
-              "Share of the baseline's (balanced, whitened) misfit explained by the linearised screening and by the "
-              "re-simulated fit; LR: drop of the whitened sum of squares (noise model from the baseline's own "
-              "residual); discovery: Benjamini–Hochberg at the round's false-discovery level; blocks: share of "
-              "condition blocks "
-              "the linearised screening predicts better when left out; validation: drop of the balanced "
-              "(drift channels alone) noise-weighted sum of squares on the inner validation block, fitted "
-              "without it (> 0: better than the baseline).", "",
-              "| round | candidate | screening share | fitted share | LR | p | discovery (level) | blocks improved | "
-              "validation |", "|---:|---|---:|---:|---:|---:|---|---:|---:|"]
-    lines += [f"| {t['round']} | {t['candidate']} | {t['screen_share']:.1%} | {t['fit_share']:.1%} | {t['lr']:.3g} | "
-              f"{t['p_value']:.2g} | {'yes' if t['discovered'] else 'no'} ({t['level']:g}) | "
-              f"{t['blocks_improved']:.0%} | {t['validation_gain']:.3g} "
-              f"({t['validation_gain_displacement']:.3g}) |" for t in d.trace]
+              "Each candidate is judged on the channels it reaches: the drift channels when its response reaches "
+              "them, else the temperature channels it changes. Shares: of the baseline's (balanced, whitened) "
+              "misfit explained by the linearised screening and by the re-simulated fit; LR: drop of the whitened "
+              "sum of squares on the judged channels (noise model from the baseline's own residual); discovery: "
+              "Benjamini–Hochberg at the round's false-discovery level; blocks: share of condition blocks the "
+              "linearised screening predicts better when left out, and the t statistic of their gains; "
+              "validation: drop of the noise-weighted sum of squares of the judged channels on the inner "
+              "validation block, fitted without it, per sample, against the block-to-block spread of the error "
+              "the candidate leaves there (its standard error; the gain must exceed it), and the same drop on "
+              "the other channels (the guard).", "",
+              "| round | candidate | judged on | screening share | fitted share | LR | p | discovery (level) | "
+              "blocks improved (t) | validation per sample / spread | other channels | accepted |",
+              "|---:|---|---|---:|---:|---:|---:|---|---:|---:|---:|---|"]
+    lines += [f"| {t['round']} | {t['candidate']} | {t['judged_on']} | {t['screen_share']:.1%} | "
+              f"{t['fit_share']:.1%} | {t['judged_statistic']:.3g} | {t['judged_p_value']:.2g} | "
+              f"{'yes' if t['discovered'] else 'no'} ({t['level']:g}) | {t['judged_cv_wins']:.0%} "
+              f"({t['judged_cv_t']:.2f}) | {t['judged_validation_gain'] / max(t['validation_samples'], 1):.3g} / "
+              f"{t['judged_block_spread']:.3g} | {t['guard_validation_gain']:.3g} | "
+              f"{'yes' if t['passed'] else 'no'} |" for t in d.trace]
     lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
     lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]
     lines += ["", "Files: `report.json`, `residuals.csv` (measured − prediction per channel), `residual_map.png`, "

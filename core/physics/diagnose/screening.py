@@ -87,6 +87,8 @@ class Candidate:
     p_value: float = 1.0
     cv_gain: float = 0.0
     cv_wins: float = 0.0
+    cv_blocks: Any = None         # (blocks, groups): held-out gain of each block, amplitudes fitted without it
+    group_gain: Any = None        # (groups,): gain per amplitude group on the screening rows
     beta: dict[str, float] = field(default_factory=dict)
     dsse_bal: float = 0.0
     block_stats: Any = None       # (blocks, groups, 3): <R,r>, <R,R>, <r,r> per block and group
@@ -298,14 +300,20 @@ def score(screen: Screen, cand: Candidate, n_tests: int) -> Candidate:
     cand.dof = max(int((tot[:, 1] > 1e-12).sum()), 1)
     cand.lr = max(cand.dsse, 0.0)
     cand.p_value = float(stats.chi2.sf(cand.lr, cand.dof))
-    cv, wins = 0.0, 0
+    cand.group_gain = gain
+    cand.cv_blocks = np.zeros((nb, len(screen.groups)))
     for b in range(nb):
         bb = _beta(tot - stats_[b], _nonneg_first(screen, cand))
-        g = float(screen.weights @ (2 * bb * stats_[b, :, 0] - bb ** 2 * stats_[b, :, 1]))
-        cv += g
-        wins += g > 0
-    cand.cv_gain, cand.cv_wins = cv, wins / nb
+        cand.cv_blocks[b] = 2 * bb * stats_[b, :, 0] - bb ** 2 * stats_[b, :, 1]
+    cand.cv_gain, cand.cv_wins = cv_of(screen.weights, cand.cv_blocks)
     return cand
+
+
+def cv_of(weights: np.ndarray, cv_blocks: np.ndarray) -> tuple[float, float]:
+    """Condition-blocked cross-validated gain with the amplitude groups weighted by ``weights`` (0: left out)
+    and the share of blocks it improves."""
+    per_block = cv_blocks @ weights
+    return float(per_block.sum()), float(np.mean(per_block > 0)) if len(per_block) else 0.0
 
 
 def _beta(tot: np.ndarray, nonneg_first: bool) -> np.ndarray:
@@ -361,13 +369,10 @@ def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
     betas = [_solve(tot[g], nonneg and g == 0) for g in range(len(screen.groups))]
     gains = np.array([_gain(tot[g], betas[g]) for g in range(len(screen.groups))])
     nb = gram.shape[0]
-    cv, wins = 0.0, 0
+    cv_blocks = np.zeros((nb, len(screen.groups)))
     for blk in range(nb):
         rest = tot - gram[blk]
-        g_sum = sum(screen.weights[g] * _gain(gram[blk, g], _solve(rest[g], nonneg and g == 0))
-                    for g in range(len(screen.groups)))
-        cv += g_sum
-        wins += g_sum > 0
+        cv_blocks[blk] = [_gain(gram[blk, g], _solve(rest[g], nonneg and g == 0)) for g in range(len(screen.groups))]
     dof = sum(p.dof for p in parts)
     dsse = float(gains.sum())
     out = Candidate(first.mechanism, first.options, first.shape, first.network, first.free,
@@ -377,7 +382,8 @@ def combine(screen: Screen, parts: list[Candidate]) -> Candidate:
     out.part_betas = [float(betas[0][i]) if screen.temps_first else 0.0 for i in range(len(parts))]
     out.dsse, out.dsse_bal, out.dof = dsse, float(screen.weights @ gains), dof
     out.lr, out.p_value = max(dsse, 0.0), float(stats.chi2.sf(max(dsse, 0.0), dof))
-    out.cv_gain, out.cv_wins = cv, wins / nb
+    out.cv_blocks, out.group_gain = cv_blocks, gains
+    out.cv_gain, out.cv_wins = cv_of(screen.weights, cv_blocks)
     out.beta = first.beta
     out.block_stats, out.projected = first.block_stats, first.projected
     out.gram = gram

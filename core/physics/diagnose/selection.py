@@ -10,8 +10,9 @@ Bonferroni level α/m over the m screened candidates.
 The calibration search minimises its own objective (each channel weighted by the larger of its noise and
 its misfit at the start), not this statistic, and on some recordings ends where the statistic is worse than
 at the start it was given (the screening's linearised amplitude). The start, with only the linear parameters
-solved, is therefore scored too and the better of the two by the balanced statistic is kept (the search
-result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
+solved, is therefore scored too and the better of the two is kept, by the whitened statistic on the channels
+the candidate is judged on (:mod:`.rule`: the drift channels when its response reaches them), else balanced (the
+search result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
 parameters its search leaves fixed (the slow mode's conductance) is fitted from two starts, those at their
 default and at the screening's temperature amplitude, and the better is kept alike.
 
@@ -84,6 +85,10 @@ class Fitted:
     declared: list = field(default_factory=list)  # (FreeParameter, start) of every parameter the mechanism declares
     fixed: dict[str, float] = field(default_factory=dict)  # parameters the data cannot identify, held at a value
     spread: float = 0.0  # standard error of its held-out block error (noise units per sample), set by the finder
+    drop: Any = None       # per channel: drop of the whitened sum of squares on the fitted rows
+    block_drop: Any = None  # (blocks, channels): the same per condition block
+    val_drop: Any = None   # per channel: drop of the noise-weighted sum of squares on the inner validation block
+    val_base: Any = None   # per channel: the baseline's noise-weighted sum of squares there
 
 
 def _declared(cand: Candidate, base: Network,
@@ -152,16 +157,21 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     displacement channels (bool per channel) for ``val_disp``; ``noise`` whitens the residuals of the fitted
     rows before their sums of squares are compared (:mod:`.noise`; None: white, in units of ``sigma``).
     """
+    judged = None
+    if displacement is not None:  # the fit kept is the better one on the channels it is judged on (:mod:`.rule`)
+        reach = np.abs(cand.response).max(axis=0) > 1e-9
+        judged = displacement if (reach & displacement).any() else (~displacement & reach)
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
-                  blocks, max_evaluations, level, intervals=True, noise=noise)
+                  blocks, max_evaluations, level, intervals=True, noise=noise, judged=judged)
     if validation is not None:
         inner = _fit(restricted(validation.screen, cand, validation.keep), base, validation.recording, scenario,
                      channels, measured, sigma, weights, validation.base_readings, validation.inner, None,
-                     max_evaluations, level, intervals=False, noise=noise)
+                     max_evaluations, level, intervals=False, noise=noise, judged=judged)
         d0 = (((measured - validation.base_readings) / sigma)[validation.rows]) ** 2
         d1 = (((measured - inner.readings) / sigma)[validation.rows]) ** 2
         drop = d0.sum(axis=0) - d1.sum(axis=0)
         fitted.val_bal = float(drop @ weights)
+        fitted.val_drop, fitted.val_base = drop, d0.sum(axis=0)
         if displacement is not None:
             fitted.val_disp, fitted.val_disp0 = float(drop[displacement].sum()), float(d0[:, displacement].sum())
             fitted.val_disp_n = int(d0[:, displacement].size)
@@ -194,7 +204,8 @@ def _squares(resid: np.ndarray, noise: NoiseModel | None, nuisance: list[np.ndar
 
 
 def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows, blocks,
-         max_evaluations, level, intervals: bool, noise: NoiseModel | None = None) -> Fitted:
+         max_evaluations, level, intervals: bool, noise: NoiseModel | None = None,
+         judged: np.ndarray | None = None) -> Fitted:
     base_nuisance = baseline_of(base, scenario, channels, measured, rows, sigma).nuisance if noise else None
     d0 = _squares(((measured - base_readings) / sigma)[rows], noise, base_nuisance, rows)
     best = None
@@ -211,10 +222,12 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
             refit = baseline_of(res.network, scenario, channels, measured, rows, sigma)
             readings = refit.readings
             d1 = _squares(((measured - readings) / sigma)[rows], noise, refit.nuisance, rows)
-            dsse_bal = float((d0.sum(axis=0) - d1.sum(axis=0)) @ weights)
-            if best is None or dsse_bal > best[3]:
-                best = (res, readings, d1, dsse_bal, declared)
-    res, readings, d1, dsse_bal, declared = best
+            drop = d0.sum(axis=0) - d1.sum(axis=0)
+            dsse_bal = float(drop @ weights)
+            key = dsse_bal if judged is None else float(drop[judged].sum())
+            if best is None or key > best[5]:
+                best = (res, readings, d1, dsse_bal, declared, key)
+    res, readings, d1, dsse_bal, declared, _ = best
     dsse = float(d0.sum() - d1.sum())
     dof = max(len(declared), 1)
     values = res.network.parameters()
@@ -222,15 +235,16 @@ def _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights
     slack = 1e-6
     outside = [f"{fp.name} = {params[fp.name]:.4g} {fp.unit} outside [{fp.low:g}, {fp.high:g}]" for fp, _ in declared
                if not fp.low - slack * abs(fp.low) <= params[fp.name] <= fp.high + slack * abs(fp.high)]
-    block_raw = block_bal = None
+    block_raw = block_bal = block_drop = None
+    diff = d0 - d1
     if blocks is not None:
         nb = int(blocks.max()) + 1
-        diff = d0 - d1
         block_raw = np.bincount(blocks, diff.sum(axis=1), minlength=nb)
         block_bal = np.bincount(blocks, diff @ weights, minlength=nb)
+        block_drop = np.column_stack([np.bincount(blocks, diff[:, c], minlength=nb) for c in range(diff.shape[1])])
     return Fitted(cand, res.network, readings, dsse, dsse_bal, dof,
                   float(stats.chi2.sf(max(dsse, 0.0), dof)), params, ci, outside, block_raw, block_bal,
-                  declared=declared)
+                  declared=declared, drop=diff.sum(axis=0), block_drop=block_drop)
 
 
 def _values_and_intervals(res, declared) -> tuple[dict[str, float], dict[str, list[float] | None]]:

@@ -1,0 +1,153 @@
+"""The acceptance rule: a fitted candidate is judged on the channels the user cares about, against the scale of
+the structural misfit on this machine.
+
+A mechanism whose response reaches the drift channels is judged on them (the quantity a compensation
+predicts); the temperature channels only guard against a fit that buys its drift gain by making them worse. A
+mechanism that changes the temperature readings alone (a sensor's lag) is judged on the channels it changes, and
+the others guard. Judging the temperature and drift channels balanced lets the temperature channels' structural
+misfit (surface sensors of a body that is no lumped network) outvote the drift: a true mechanism improving the
+unseen drift by half lost on the total, and a sensor lag improving the temperatures alone won.
+
+On the judged channels (:func:`judge`):
+
+* test     the drop of the AR-whitened sum of squares on the fitted rows is a likelihood-ratio statistic,
+           χ²(free parameters) with nothing missing; the parameters were fitted on every channel, so on a subset
+           the drop is at most what fitting that subset alone would give: the test stays valid (conservative).
+           The p-values of a round go to Benjamini–Hochberg (:mod:`.noise`).
+* blocks   the condition-blocked cross-validated gain of the screening improves at least half the blocks and
+           its per-block mean is positive by a one-sided t-test at :data:`CV_LEVEL` (consistent over the
+           conditions, not carried by one block where the baseline extrapolates badly).
+* held out fitted without the inner validation block, it predicts that block better by more per sample than
+           the error it leaves on those channels varies from block to block (its standard error over the
+           condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
+* guard    the other channels on that block are not worse than :data:`GUARD_SHARE` of the baseline's error
+           there or :data:`GUARD_Z` standard errors of their own block-to-block spread.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from thermodrift.core.physics.diagnose.screening import cv_of
+
+SPREAD_Z = 1.0     # held-out gain per sample over this many standard errors of the block-to-block spread
+GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-out block (share of their error) ...
+GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
+MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
+CV_LEVEL = 0.10     # one-sided level of the t-test that the per-block cross-validated gain is positive
+
+
+@dataclass
+class Judged:
+    """A fitted candidate's statistics on its judged channels (``group``: "drift" or "temperatures")."""
+
+    group: str
+    statistic: float      # drop of the whitened sum of squares on the fitted rows (judged channels)
+    p_value: float
+    cv_gain: float
+    cv_wins: float
+    cv_t: float           # t statistic of the per-block cross-validated gains (mean over its standard error)
+    val_gain: float       # drop of the noise-weighted sum of squares on the inner validation block (judged)
+    val_base: float       # the baseline's sum there
+    spread: float         # standard error of the held-out block error per sample (judged channels)
+    guard_gain: float     # the same drop on the guarding channels
+    guard_base: float
+    guard_spread: float
+    n_val: int
+    channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
+    blocks: int = 0       # condition blocks of the cross-validation
+
+    def consistent(self) -> bool:
+        return (self.cv_gain > 0 and self.cv_wins >= MIN_WINS
+                and self.cv_t >= float(stats.t.isf(CV_LEVEL, max(self.blocks - 1, 1))))
+
+    def held_out(self) -> bool:
+        return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
+
+    def guarded(self) -> bool:
+        slack = max(GUARD_SHARE * self.guard_base, GUARD_Z * self.guard_spread * max(self.n_val, 1))
+        return not self.guard_gain < -slack
+
+    def as_dict(self) -> dict:
+        return {"judged_on": self.group, "judged_statistic": self.statistic, "judged_p_value": self.p_value,
+                "judged_cv_gain": self.cv_gain, "judged_cv_wins": self.cv_wins,
+                "judged_cv_t": self.cv_t, "judged_validation_gain":
+                self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
+                "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
+                "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
+                "cv_blocks": self.blocks}
+
+
+def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
+                 rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> float:
+    """Standard error of a model's mean weighted squared error (noise units, per sample) over one held-out block
+    as large as the validation block: the standard deviation of its per-block means over the condition blocks
+    of the screening rows, over √(blocks in the validation block). ``weights`` per channel (0: left out)."""
+    sq = (((measured - readings) / sigma)[rows]) ** 2 @ weights
+    nb = int(blocks.max()) + 1
+    counts = np.bincount(blocks, minlength=nb)
+    means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
+    k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
+    return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
+
+
+def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
+          rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> Judged:
+    """The statistics of fitted candidate ``f`` (:class:`.selection.Fitted`) on its judged channels: the drift
+    channels (``displacement``, bool per channel) when its response reaches them, else the temperature channels
+    its response changes (a lagged sensor's own). ``group_is_drift`` marks the screening's amplitude groups that
+    are drift channels."""
+    reach = np.abs(f.candidate.response).max(axis=0) > 1e-9
+    drift = bool((reach & displacement).any())
+    judged = displacement if drift else (~displacement & reach)
+    guard = ~judged
+    cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
+    cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
+    per_block = f.candidate.cv_blocks @ cv_w
+    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
+    mean = float(np.mean(per_block)) if len(per_block) else 0.0
+    cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
+    stat = float(f.drop[judged].sum())
+
+    def spread(mask):
+        return block_spread(measured, f.readings, sigma, mask.astype(float), rows, blocks, val_rows) if mask.any() \
+            else 0.0
+
+    return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
+                  cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
+                  spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
+                  len(val_rows), judged, len(per_block))
+
+
+def passes(f, j: Judged, discovered: bool) -> bool:
+    """Every test of the module docstring, given the Benjamini–Hochberg decision ``discovered``."""
+    return discovered and j.statistic > 0 and not f.outside and j.consistent() and j.held_out() and j.guarded()
+
+
+def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
+    """The first test a candidate fails, in words."""
+    where = "drift" if j.group == "drift" else "temperature"
+    if j.statistic <= 0:
+        return f"re-simulated fit does not lower the (whitened) misfit of the {where} channels"
+    if not discovered:
+        return (f"not significant: whitened likelihood ratio {j.statistic:.3g} on the {where} channels, "
+                f"p = {j.p_value:.2g}, not a discovery at false-discovery level {level:g} (Benjamini–Hochberg "
+                f"over {m} candidates)")
+    if f.outside:
+        return "fits only with unphysical values: " + "; ".join(f.outside)
+    if not j.consistent():
+        return (f"held-out condition blocks do not improve consistently on the {where} channels (gain "
+                f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks)")
+    per = j.val_gain / max(j.n_val, 1)
+    if j.val_gain > 0 and not j.held_out():
+        return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "
+                f"than the baseline by {per:.3g} per sample (noise units), within {SPREAD_Z:g} × {j.spread:.3g}, by "
+                "which the error it leaves varies from block to block: structural misfit, not this mechanism")
+    if not j.held_out():
+        return (f"fitted without the last part of the fitted data, it does not predict that part's {where} "
+                f"channels better than the baseline (noise-weighted gain {j.val_gain:.3g} of {j.val_base:.3g})")
+    return (f"it buys its {where} gain on the held-out block by making the other channels worse "
+            f"({j.guard_gain:.3g} of {j.guard_base:.3g}, noise-weighted)")
