@@ -278,3 +278,34 @@ def test_an_ensemble_whose_members_cancel_only_on_the_inner_folds_loses_out_of_f
     noisy = [[rng.normal(0.0, 1.0, (n, 1)) for _ in range(2)] for _ in range(3)]
     ens, single = out_of_fold(noisy, fold_rmse, inner.aggregate)
     assert ens < single  # independent errors: averaging wins out of fold too
+
+
+def test_a_tuned_candidate_enters_the_final_choice_only_when_it_beats_the_a_priori_best_by_one_se():
+    import optuna
+
+    from thermodrift.core.automl.evaluate import Evaluation
+    from thermodrift.core.automl.search import Entry, Search, earns_its_place
+
+    assert earns_its_place([0.9, 0.8], [1.0, 1.0])
+    assert not earns_its_place([0.5, 1.05], [1.0, 1.0])  # two folds: better on both, not on average
+    assert earns_its_place([0.90, 0.95, 0.92], [1.0, 1.0, 1.0])
+    assert not earns_its_place([0.2, 1.1, 1.2], [1.0, 1.0, 1.0])  # a mean gain within the fold noise
+    assert not earns_its_place([np.nan, 0.1], [1.0, 1.0])
+
+    rec = tiny_recording()
+    (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
+    ev = Evaluator(rec, outer.train, ["disp_z_um"], inner.inner_folds(rec, outer.train, 2))
+    said = []
+    search = Search(ev, optuna.create_study(), Settings(families=["mlr"]), said.append, progress=False)
+
+    def entry(number, phase, fold_rmse):
+        cand = space.Candidate({"model": "mlr", "model_params": {}, "selector": "all", "selector_params": {},
+                                "features": None})
+        return Entry(number, cand, Evaluation(fold_rmse, {}, inner.aggregate(fold_rmse)), phase=phase)
+
+    prior, lucky, steady = entry(0, "portfolio", [1.0, 1.0]), entry(1, "tpe", [0.5, 1.05]), entry(2, "tpe", [0.9, 0.95])
+    assert lucky.score < steady.score < prior.score
+    eligible = search._eligible([prior, lucky, steady])
+    assert [e.number for e in eligible] == [0, 2]
+    assert search._best(eligible) is steady
+    assert said and "1 TPE candidate" in said[0]

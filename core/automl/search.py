@@ -2,6 +2,10 @@
 best pipeline is dropped at its lowest fidelity), then Optuna's TPE over the conditional space of the promising
 cheap families with the budget left, then the greedy ensemble.
 
+A TPE candidate's settings were chosen on the very folds that score it, so its score is optimistic (and more so
+the more trials TPE compares): it enters the final choice only when it beats the best a-priori candidate by more
+than one standard error of their per-fold differences (:func:`earns_its_place`).
+
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
 one trial of an Optuna study (portfolio and promoted candidates are enqueued trials carrying the candidate as a
@@ -125,8 +129,9 @@ class Search:
             from thermodrift.core.errors import InputError
             reasons = sorted({e.error for e in entries})
             raise InputError(f"every automl candidate failed: {'; '.join(reasons)[:300]}")
-        best = self._best(ok)
-        return SearchResult(entries, best, self._ensemble(ok, best), self.fits_used(), self.ev.folds,
+        eligible = self._eligible(ok)
+        best = self._best(eligible)
+        return SearchResult(entries, best, self._ensemble(eligible, best), self.fits_used(), self.ev.folds,
                             self.stopped_by)
 
     def _phase(self, name: str, make: Callable[[], list[tuple[space.Candidate, str]]]) -> None:
@@ -259,6 +264,21 @@ class Search:
         """The best candidate by score among those trained as the refit will be (else among all)."""
         return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
 
+    def _eligible(self, ok: list[Entry]) -> list[Entry]:
+        """The candidates the final choice (best pipeline and ensemble pool) draws from: every a-priori one
+        (portfolio, promoted) and the TPE ones that earn their place against the best a-priori candidate."""
+        prior = [e for e in ok if e.phase != "tpe" and self._full(e)]
+        if not prior:
+            return ok
+        ref = min(prior, key=lambda e: (e.score, e.number))
+        keep = [e for e in ok if e.phase != "tpe" or earns_its_place(e.evaluation.fold_rmse,
+                                                                     ref.evaluation.fold_rmse)]
+        if len(keep) < len(ok):
+            self.say(f"automl: {len(ok) - len(keep)} TPE candidate(s) left out of the final choice: tuned on the "
+                     f"folds that score them, they do not beat #{ref.number} ({space.describe(ref.candidate.params)}"
+                     f") by more than one standard error across the folds")
+        return keep
+
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
         """Greedy ensemble over a diverse pool: the best candidate of each family on each input set (raw, each
         filter bank; members that err differently are what an ensemble gains from), best first. Kept when it beats
@@ -299,3 +319,15 @@ class Search:
                                           top) for i in used],
                 "weights": [float(weights[i]) for i in used], "numbers": [pool[i].number for i in used],
                 "score": agg, "fold_rmse": fold_rmse}
+
+
+def earns_its_place(tuned: list[float], reference: list[float]) -> bool:
+    """Whether a candidate tuned on the inner folds (``tuned``: its per-fold RMSEs, µm) beats one chosen before
+    looking at them (``reference``) by more than one standard error of the per-fold differences (the one-SE rule of
+    Breiman et al., 1984, applied to the gain of tuning). With two folds this means better on both; with one, better
+    on it."""
+    d = np.asarray(tuned, dtype=float) - np.asarray(reference, dtype=float)
+    if not len(d) or not np.isfinite(d).all():
+        return False
+    se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else 0.0
+    return bool(d.mean() + se < 0)
