@@ -2,7 +2,8 @@
 
 Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under three condition-held-out
 splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm condition held out,
-training on every earlier condition; the 4500 rpm condition held out, the last one), and the four reference
+training on every earlier condition; the 4500 rpm condition held out, the last one; the final block of short
+runs, 500/1500/2500/4500 rpm, held out after training on t < 40.13 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
 their last working condition held out, every displacement channel). The default run is two small reference
 machines with small budgets (under 10 minutes on 2 cores).
@@ -25,6 +26,10 @@ task in ``--cache`` (JSON), so ``--full`` can run in pieces and resumes. Wall ti
 Run::
 
     python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
+        [--budgets FITS ...] [--hindsight-trials N]
+
+``--budgets`` replaces the set's budgets (the default budget is always run) and ``--hindsight-trials`` its TPE
+trials per family for the hindsight best, so a piece of ``--full`` fits a time slot; the cache file names both.
 """
 
 from __future__ import annotations
@@ -50,6 +55,7 @@ TASKS = {
                    "split_params": {"train_end_h": 24.13, "test_start_h": 24.13, "test_end_h": 32.13}},
     "fl_3500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3500rpm"]}},
     "fl_4500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["4500rpm"]}},
+    "fl_final": {**FL, "split": "time_window", "split_params": {"train_end_h": 40.13, "test_start_h": 40.13}},
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
@@ -71,11 +77,15 @@ def held_out(job) -> dict:
             "mlr": job.summary_metrics("mlr")["rmse"], "persistence": job.summary_metrics("persistence")["rmse"]}
 
 
-def run_automl(spec: JobSpec, recording, budget: int, families) -> dict:
-    started = time.perf_counter()
+def run_automl(spec: JobSpec, recording, budget: int, families, board: Path | None = None) -> dict:
+    """automl at ``budget`` fits: held-out RMSE, wall time, the choice; its leaderboard into ``board`` (CSV)."""
+    started, cpu = time.perf_counter(), time.process_time()
     result = automl_job.run(spec, Settings(budget_fits=budget, families=families), recording=recording)
+    if board is not None:
+        result.leaderboard.to_csv(board, index=False)
     chosen = result.search.ensemble or result.search.best.candidate.params
-    return {"budget": budget, "wall_s": time.perf_counter() - started, **held_out(result.job),
+    return {"budget": budget, "wall_s": time.perf_counter() - started, "cpu_s": time.process_time() - cpu,
+            **held_out(result.job),
             "chosen": result.job.spec.model, "label": json.dumps(chosen, default=str)[:300],
             "inner_score": result.job.valid_rmse}
 
@@ -142,15 +152,46 @@ def run_task(name: str, conf: dict, args) -> dict:
     budgets = sorted(set(conf["budgets"]) | {conf["default"]})
     runs = []
     for b in budgets:
-        runs.append(run_automl(spec, recording, b, conf["families"]))
+        runs.append(run_automl(spec, recording, b, conf["families"],
+                               args.cache / f"{name}-leaderboard-b{b}-s{args.seed}.csv"))
         r = runs[-1]
         print(f"  {name}: automl budget {b}: held-out RMSE {r['rmse']:.3f} µm in {r['wall_s']:.0f} s "
-              f"({r['chosen']})", flush=True)
+              f"({r['cpu_s']:.0f} s of CPU; {r['chosen']})", flush=True)
     default = next(r for r in runs if r["budget"] == conf["default"])
     best = hindsight(spec, recording, conf["families"], conf["tpe"])
     print(f"  {name}: hindsight best {best['best']} {best['rmse']:.3f} µm", flush=True)
     flaml = flaml_scores(spec, recording, default["wall_s"])
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
+
+
+def inner_table(name: str, args) -> str:
+    """Why a choice goes wrong: every portfolio candidate (networks aside) with its inner-fold RMSEs (µm), their
+    (mean + worst) / 2 and its held-out RMSE after the refit on the whole training part (µm)."""
+    from thermodrift.core.automl import folds as inner
+    from thermodrift.core.automl.evaluate import Evaluator
+    from thermodrift.core.study import predict_rows
+
+    spec = spec_of(TASKS[name], args.seed, args.data)
+    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
+    targets = automl_job.targets_of(recording, spec.targets)
+    folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
+    ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
+    fams = [f for f in space.families() if not f.network]
+    lines = [f"{name}: inner folds " + "; ".join(f.name.removeprefix("inner: ") for f in folds),
+             "| candidate | " + " | ".join(f"fold {k + 1}" for k in range(len(folds))) + " | inner score | held out |",
+             "|---|" + "---:|" * (len(folds) + 2)]
+    for cand in space.portfolio(fams, space.selectors()):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            e = ev.evaluate(cand.params, measure_costs=False)
+            model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
+            pred = predict_rows(model, ev.X, fold.test)
+        out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
+        lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
+                     + f" | {e.score:.2f} | {out:.2f} |")
+        print(lines[-1], flush=True)
+    return "\n".join(lines)
 
 
 def table(results: list[dict]) -> str:
@@ -202,8 +243,23 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
     parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
+    parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
+    parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
+    parser.add_argument("--inner-table", action="store_true",
+                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task")
     args = parser.parse_args()
+    if args.inner_table:
+        for name in args.tasks or QUICK["tasks"]:
+            print(inner_table(name, args))
+        return
     conf = dict(FULL if args.full else QUICK)
+    if args.budgets is not None:
+        conf["budgets"] = args.budgets
+    if args.hindsight_trials is not None:
+        conf["tpe"] = args.hindsight_trials
+    tag = "full" if args.full else "quick"
+    if args.budgets is not None or args.hindsight_trials is not None:
+        tag += f"-b{'_'.join(map(str, sorted(set(conf['budgets']))))}-t{conf['tpe']}"
     names = args.tasks or (list(TASKS) if args.full else QUICK["tasks"])
     unknown = [n for n in names if n not in TASKS]
     if unknown:
@@ -211,7 +267,7 @@ def main() -> None:
     args.cache.mkdir(parents=True, exist_ok=True)
     results = []
     for name in names:
-        path = args.cache / f"{name}-{'full' if args.full else 'quick'}-s{args.seed}.json"
+        path = args.cache / f"{name}-{tag}-s{args.seed}.json"
         if path.exists():
             print(f"{name}: cached in {path}")
             results.append(json.loads(path.read_text(encoding="utf-8")))

@@ -209,3 +209,72 @@ def test_a_rerun_resumes_from_the_storage_and_only_runs_the_missing_budget(tmp_p
     assert first.search.fits == 6 and second.search.fits == 10 and any("resumed" in s for s in said)
     assert [e.number for e in second.search.entries][:3] == [e.number for e in first.search.entries]
     assert [e.score for e in second.search.entries][:3] == [e.score for e in first.search.entries]
+
+
+def test_portfolio_reads_each_filter_bank_along_the_penalty_path_cheap_families_untuned_first():
+    fams = space.families(only=["mlr", "transfer_function", "lptn"])
+    cands = space.portfolio(fams, {"all": {}})
+    mlr_feats = [c for c in cands if c.family == "mlr" and c.params["features"]]
+    alpha_high = space.families(only=["mlr"])[0].space["alpha"]["high"]
+    expected = {(tuple(b["taus_s"]), min(a, alpha_high)) for b in space.FILTER_BANKS for a in space.ALPHA_PATH}
+    assert {(tuple(c.params["features"]["taus_s"]), c.params["model_params"]["alpha"]) for c in mlr_feats} == expected
+    assert not [c for c in cands if c.family in ("transfer_function", "lptn") and c.params["features"]]
+    order = [(c.family, bool(c.params["features"])) for c in cands]
+    # every cheap family's untuned pipeline comes before the first feature pipeline, and the physics family last
+    assert order.index(("transfer_function", False)) < order.index(("mlr", True))
+    assert order[-1] == ("lptn", False)
+
+
+def test_networks_are_promoted_before_tpe_spends_the_budget(monkeypatch):
+    from thermodrift.core.automl import search
+
+    monkeypatch.setattr(search, "PROMOTE_WITHIN", float("inf"))  # every network is worth more epochs here
+    board = _run(["mlr", "bp"], budget=40, top_rung=1).leaderboard
+    assert "rung1" in set(board["phase"]) and "tpe" in set(board["phase"])
+    assert board.loc[board["phase"] == "rung1", "trial"].max() < board.loc[board["phase"] == "tpe", "trial"].min()
+
+
+def test_lptn_and_lptn_hybrid_on_the_same_rows_share_one_calibration(monkeypatch):
+    """AutoML fits both physics families on every inner fold: the deterministic calibration runs once, and a
+    model built from the shared result predicts exactly as one calibrated alone."""
+    from thermodrift.core.physics import calibration as cal
+    from thermodrift.plugins.models import lptn
+
+    rec = tiny_recording()
+    targets = ["disp_z_um"]
+    X = model_inputs(rec, rec.columns("temperature"), registry.get("model", "lptn").factory, targets)
+    y = rec.data[targets]
+    small = {"hidden_nodes": 1, "max_evaluations": 5, "max_fit_samples": 150}
+    alone = registry.create("model", "lptn", **small).fit(X.iloc[:200], y.iloc[:200]).predict(X.iloc[200:260])
+    calls = []
+    real = cal.calibrate
+    monkeypatch.setattr(cal, "calibrate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    monkeypatch.setattr(lptn, "_CALIBRATIONS", {})
+    first = registry.create("model", "lptn", **small).fit(X.iloc[:200], y.iloc[:200])
+    registry.create("model", "lptn_hybrid", **small, alpha=1.0).fit(X.iloc[:200], y.iloc[:200])
+    registry.create("model", "lptn", **small).fit(X.iloc[:150], y.iloc[:150])  # other rows: calibrated anew
+    assert len(calls) == 2
+    np.testing.assert_array_equal(first.predict(X.iloc[200:260]), alone)
+
+
+def test_an_ensemble_whose_members_cancel_only_on_the_inner_folds_loses_out_of_fold():
+    from thermodrift.core.automl.ensemble import caruana, out_of_fold
+
+    n = 50
+    truth = [np.zeros((n, 1)), np.zeros((n, 1))]
+
+    def fold_rmse(pred, k):
+        return float(np.sqrt(np.mean((pred - truth[k]) ** 2)))
+
+    def score(mix):
+        return inner.aggregate([fold_rmse(m, k) for k, m in enumerate(mix)])
+
+    const = [[np.full((n, 1), a), np.full((n, 1), b)] for a, b in ((1.0, 1.0), (-0.9, 0.5))]
+    weights, in_sample = caruana(const, score)
+    assert in_sample < min(score(p) for p in const)  # in sample, the cancelling pair wins
+    ens, single = out_of_fold(const, fold_rmse, inner.aggregate)
+    assert ens > single  # out of fold it does not
+    rng = np.random.default_rng(0)
+    noisy = [[rng.normal(0.0, 1.0, (n, 1)) for _ in range(2)] for _ in range(3)]
+    ens, single = out_of_fold(noisy, fold_rmse, inner.aggregate)
+    assert ens < single  # independent errors: averaging wins out of fold too

@@ -35,3 +35,27 @@ def caruana(preds: list[list[np.ndarray]], score: Callable[[list[np.ndarray]], f
                    zip(current or [None] * len(preds[i]), preds[i])]
         counts[i] += 1
     return counts / max(1.0, counts.sum()), best_score
+
+
+def out_of_fold(preds: list[list[np.ndarray]], fold_rmse: Callable[[np.ndarray, int], float],
+                aggregate: Callable[[list[float]], float], steps: int = 25) -> tuple[float, float]:
+    """Leave-one-fold-out scores (ensemble, single choice) of ``preds`` (per candidate: its per-fold predictions).
+
+    For each fold k, the greedy weights and, separately, the one best candidate are chosen on the other folds
+    alone and scored on fold k (``fold_rmse(prediction, k)``, µm); each list of out-of-fold RMSEs is aggregated.
+    The greedy ensemble fits its weights to the folds it is scored on, so with two or three folds its in-sample
+    score flatters it (members whose errors cancel on those folds); this is the honest comparison. Infinite
+    with fewer than two folds."""
+    n_folds = len(preds[0]) if preds else 0
+    if n_folds < 2:
+        return float("inf"), float("inf")
+    rmse = [[fold_rmse(p[k], k) for k in range(n_folds)] for p in preds]
+    ens, single = [], []
+    for k in range(n_folds):
+        others = [j for j in range(n_folds) if j != k]
+        weights, _ = caruana([[p[j] for j in others] for p in preds],
+                             lambda mix: aggregate([fold_rmse(m, j) for m, j in zip(mix, others)]), steps)
+        ens.append(fold_rmse(sum(w * p[k] for w, p in zip(weights, preds) if w > 0), k))
+        chosen = min(range(len(preds)), key=lambda i: (aggregate([rmse[i][j] for j in others]), i))
+        single.append(rmse[chosen][k])
+    return aggregate(ens), aggregate(single)

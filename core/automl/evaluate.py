@@ -61,6 +61,10 @@ class Evaluator:
         target_rmse = dict(zip(self.targets, np.mean(per_target, axis=0).tolist()))
         return Evaluation(fold_rmse, target_rmse, aggregate(fold_rmse), preds, fit_s, costs)
 
+    def fold_rmse(self, pred: np.ndarray, k: int) -> float:
+        """RMSE (µm, mean over targets) of ``pred`` on inner fold ``k``'s validation rows."""
+        return float(evaluate(self.truth[k], pred)["mean"]["rmse"])
+
     def score_predictions(self, preds: list[np.ndarray]) -> tuple[list[float], float]:
         """Per-fold RMSE (µm, mean over targets) and the aggregated score of given fold predictions."""
         rmse = [float(evaluate(t, p)["mean"]["rmse"]) for t, p in zip(self.truth, preds)]

@@ -1,5 +1,6 @@
-"""The search: a portfolio first, then Optuna's TPE over the conditional space of the promising families, then
-successive halving of the networks on epochs, then the greedy ensemble.
+"""The search: a portfolio first, then successive halving of the networks on epochs (a network far behind the
+best pipeline is dropped at its lowest fidelity), then Optuna's TPE over the conditional space of the promising
+cheap families with the budget left, then the greedy ensemble.
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
@@ -22,8 +23,9 @@ import optuna
 
 from thermodrift.core import resume
 from thermodrift.core.automl import space
-from thermodrift.core.automl.ensemble import caruana
+from thermodrift.core.automl.ensemble import caruana, out_of_fold
 from thermodrift.core.automl.evaluate import Evaluation, Evaluator
+from thermodrift.core.automl.folds import aggregate
 
 PHASE_ATTR = "automl.phase"
 PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is within this factor of the best
@@ -112,8 +114,8 @@ class Search:
         try:
             self._phase("portfolio", lambda: [(c, "portfolio") for c in
                                               space.portfolio(list(self.families.values()), self.selectors)])
-            self._tpe()
             self._promote()
+            self._tpe()
         finally:
             if self.bar is not None:
                 self.bar.close()
@@ -258,12 +260,14 @@ class Search:
         return min([e for e in ok if self._full(e)] or ok, key=lambda e: (e.score, e.number))
 
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
-        """Greedy ensemble over a diverse pool: the best candidate of each family with raw inputs and with
-        features (members that err differently are what an ensemble gains from), best first."""
+        """Greedy ensemble over a diverse pool: the best candidate of each family on each input set (raw, each
+        filter bank; members that err differently are what an ensemble gains from), best first. Kept when it beats
+        the best pipeline on the inner folds and, with two folds or more, also out of fold
+        (:func:`thermodrift.core.automl.ensemble.out_of_fold`)."""
         top = self.settings.top_rung
         pool, seen = [], set()
         for e in sorted(ok, key=lambda e: (e.score, e.number)):
-            key = (e.candidate.family, e.candidate.params.get("features") is None)
+            key = (e.candidate.family, json.dumps(e.candidate.params.get("features"), sort_keys=True))
             if key in seen or not self._full(e):
                 continue
             seen.add(key)
@@ -282,6 +286,11 @@ class Search:
         weights, score = caruana(preds, lambda p: self.ev.score_predictions(p)[1], self.settings.ensemble_steps)
         used = np.flatnonzero(weights > 0)
         if len(used) < 2 or not score < best.score:
+            return None
+        ens_oof, single_oof = out_of_fold(preds, self.ev.fold_rmse, aggregate, self.settings.ensemble_steps)
+        if np.isfinite(ens_oof) and not ens_oof < single_oof:
+            self.say(f"automl: the greedy ensemble (inner score {score:.3f} µm) is not kept: out of fold it scores "
+                     f"{ens_oof:.3f} µm against {single_oof:.3f} µm for choosing one pipeline")
             return None
         fams = {e.candidate.family: self.families[e.candidate.family] for e in pool}
         mix = [sum(weights[i] * preds[i][k] for i in used) for k in range(len(self.ev.folds))]

@@ -39,8 +39,14 @@ FEATURE_SPACE = {"tau_min_s": {"type": "float", "low": 120.0, "high": 3600.0, "l
                  "n_taus": {"type": "int", "low": 1, "high": 5},
                  "max_power": {"type": "int", "low": 1, "high": 3}}
 DEFAULT_FEATURES = {"taus_s": [600.0, 2400.0, 9600.0], "powers": [1.0, 2.0]}
-# Settings of a family on features in the portfolio (many collinear filtered columns need a ridge penalty).
-FEATURE_PARAMS = {"mlr": {"alpha": 1.0}}
+# Filter banks of the portfolio: time constants (s) a decade and more apart, one bank fast, one slow; every
+# feature-taking family reads each (a machine's time constants are unknown before the data).
+FILTER_BANKS = (DEFAULT_FEATURES, {"taus_s": [1200.0, 4800.0, 19200.0], "powers": [1.0, 2.0]})
+# Regularisation path of the portfolio: a family whose space has an L2 penalty ``alpha`` reads the filter banks at
+# these strengths (clipped into its space). Many collinear filtered columns extrapolate to a new working condition
+# only under a penalty whose size the inner folds must decide, and a coarse path chosen on the folds is
+# less prone to fit their noise than a finely tuned value.
+ALPHA_PATH = (1.0, 10.0, 100.0)
 RUNG_EPOCH_FACTOR = 3  # successive halving: each rung trains a network 3× longer and keeps a third
 
 
@@ -149,25 +155,39 @@ def suggest(trial: optuna.Trial, fams: list[Family], sels: dict[str, dict]) -> C
 
 def portfolio(fams: list[Family], sels: dict[str, dict]) -> list[Candidate]:
     """Known-good configurations first, cheapest first: every family untuned on all sensors; every family that
-    takes features (networks aside), on the default filtered features; the cheap read-outs on filtered
-    features of the correlation-selected sensors. Networks enter at the lowest fidelity (rung 0)."""
+    takes features (networks aside) on each filter bank of :data:`FILTER_BANKS`, along :data:`ALPHA_PATH` where
+    it has a ridge penalty; the cheap read-outs on filtered features of the correlation-selected sensors.
+    Networks enter at the lowest fidelity (rung 0)."""
     order = {c: i for i, c in enumerate(COSTS)}
     ranked = sorted(fams, key=lambda f: (order[f.cost], f.name))
     out = []
-    for f in ranked:
-        out.append(Candidate(_base(f.name), origin="portfolio", label="untuned, all sensors"))
-        if f.takes_features and not f.network:  # networks get features through TPE, if they make its short list
-            out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
-                                  "features": dict(DEFAULT_FEATURES)}, origin="portfolio",
-                                 label="filtered features"))
+    for cost in COSTS:  # per cost class: every family untuned, then the filter banks along the penalty path
+        same = [f for f in ranked if f.cost == cost]
+        out += [Candidate(_base(f.name), origin="portfolio", label="untuned, all sensors") for f in same]
+        for f in same:
+            if f.takes_features and not f.network:  # networks get features through TPE, if they make its list
+                for bank, (mp, label) in ((b, m) for b in FILTER_BANKS for m in _path(f)):
+                    out.append(Candidate({**_base(f.name), "model_params": mp, "features": dict(bank)},
+                                         origin="portfolio",
+                                         label=f"filtered features ({bank['taus_s'][0]:g} s…){label}"))
     if "correlation_top_k" in sels:
         for f in ranked:
             if f.takes_features and f.cost == "cheap":
-                out.append(Candidate({**_base(f.name), "model_params": dict(FEATURE_PARAMS.get(f.name, {})),
-                                      "selector": "correlation_top_k",
+                mp, label = _path(f)[0]
+                out.append(Candidate({**_base(f.name), "model_params": mp, "selector": "correlation_top_k",
                                       "selector_params": {"k": 6}, "features": dict(DEFAULT_FEATURES)},
-                                     origin="portfolio", label="untuned, 6 sensors, filtered features"))
+                                     origin="portfolio", label=f"6 sensors, filtered features{label}"))
     return out
+
+
+def _path(family: Family) -> list[tuple[dict, str]]:
+    """(model parameters, label) along :data:`ALPHA_PATH` for a family with an ``alpha`` penalty in its space
+    (clipped into its bounds, duplicates dropped), else its defaults alone."""
+    spec = family.space.get("alpha")
+    if not spec or spec.get("type") != "float":
+        return [({}, "")]
+    alphas = dict.fromkeys(float(np.clip(a, spec["low"], spec["high"])) for a in ALPHA_PATH)
+    return [({"alpha": a}, f", alpha {a:g}") for a in alphas]
 
 
 def at_rung(candidate: Candidate, rung: int, family: Family, top_rung: int) -> dict:

@@ -24,6 +24,7 @@ the ``speed_column`` / ``ambient_column`` parameters name them instead, for fram
 from __future__ import annotations
 
 import copy
+import hashlib
 from typing import Any, ClassVar
 
 import numpy as np
@@ -52,6 +53,27 @@ def input_roles(X: pd.DataFrame, speed_column: str | None = None,
                          "X.attrs['roles'] (the study passes the roles of extra_input_roles); pass speed_column=")
     temps = [c for c in cols if c not in (speed, ambient)]
     return speed, ambient, temps
+
+
+_CALIBRATIONS: dict[str, Any] = {}  # recent calibrations by their inputs (see _calibrated)
+_CALIBRATIONS_KEPT = 4
+
+
+def _calibrated(recording: Recording, **kwargs) -> cal.CalibrationResult:
+    """``cal.calibrate(recording, **kwargs)``, computed once per process for the same data and settings: the
+    calibration is deterministic and takes minutes, and ``lptn`` and ``lptn_hybrid`` fitted on the same rows (as
+    AutoML does on every inner fold) share it. A copy is returned, so no model holds another's objects."""
+    data = recording.data
+    digest = hashlib.sha1(np.ascontiguousarray(data.to_numpy(dtype=float)).tobytes())
+    digest.update(np.asarray(data.index, dtype=float).tobytes())
+    roles = [(str(c), ch.role) for c, ch in recording.channels.items()]
+    digest.update(repr((list(map(str, data.columns)), roles, sorted(kwargs.items()))).encode())
+    key = digest.hexdigest()
+    if key not in _CALIBRATIONS:
+        while len(_CALIBRATIONS) >= _CALIBRATIONS_KEPT:
+            _CALIBRATIONS.pop(next(iter(_CALIBRATIONS)))
+        _CALIBRATIONS[key] = cal.calibrate(recording, **kwargs)
+    return copy.deepcopy(_CALIBRATIONS[key])
 
 
 class LPTN(ThermalModel):
@@ -99,9 +121,9 @@ class LPTN(ThermalModel):
             data[name] = column
             channels[name] = Channel(name, "displacement", "um", {})
         recording = Recording(data, channels, source="lptn training data")
-        result = cal.calibrate(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
-                               max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed,
-                               grouped=self.grouped)
+        result = _calibrated(recording, hidden_nodes=self.hidden_nodes, max_evaluations=self.max_evaluations,
+                             max_fit_samples=self.max_fit_samples, intervals=False, jitter_seed=self.jitter_seed,
+                             grouped=self.grouped)
         self.network_ = result.network
         nodes = {s.name: s.weights for s in self.network_.temperature_sensors}
         self.observer_ = cal.StateObserver(
