@@ -10,8 +10,7 @@
   (:mod:`thermodrift.compensator.guard`). Physics and network families get none: their refit costs minutes,
   and the compensator holds the last good value instead.
 
-The training rows are those of the job's last fold (the refit's), recomputed from the split, which is
-deterministic given the spec and the recording.
+The training rows are those of the job's last fold (the refit's), as the job recorded them.
 """
 
 from __future__ import annotations
@@ -19,7 +18,6 @@ from __future__ import annotations
 import json
 import math
 import tempfile
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +27,6 @@ from sklearn.base import clone
 
 from thermodrift.compensator import limits as limits_mod
 from thermodrift.compensator import package
-from thermodrift.core import splits
 
 LIMITS = "limits.json"
 FALLBACKS = "fallbacks"
@@ -40,14 +37,11 @@ FILTER_SETTLE = 5.0  # a filter's state is settled after this many of its longes
 def training_frame(result) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(inputs, targets) of the refit's training rows: the model's input columns with their roles in
     ``attrs["roles"]``, and the displacement targets (µm)."""
-    rec, spec, model = result.recording, result.spec, result.model
-    with warnings.catch_warnings():  # the job has already warned about a paper protocol; say it once
-        warnings.simplefilter("ignore", UserWarning)
-        fold = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(rec)[-1]
+    rec, model, rows = result.recording, result.model, result.folds[-1].train_rows
     columns = [str(c) for c in model.feature_names_in_]
-    X = rec.data[columns].iloc[fold.train]
+    X = rec.data[columns].iloc[rows]
     X.attrs["roles"] = {c: rec.channels[c].role for c in columns if c in rec.channels}
-    return X, rec.data[result.targets].iloc[fold.train]
+    return X, rec.data[result.targets].iloc[rows]
 
 
 def axes(result) -> dict[str, dict[str, Any]]:

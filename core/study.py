@@ -75,8 +75,8 @@ class JobSpec:
 
     def default_study_name(self) -> str:
         """Stable name from everything that defines the search except the budget, so re-runs resume."""
-        key = {k: v for k, v in self.__dict__.items() if k not in ("n_trials", "timeout_s", "pruner", "storage", "study_name",
-                                                                   "progress", "baselines", "threads")}
+        key = {k: v for k, v in self.__dict__.items() if k not in (
+            "n_trials", "timeout_s", "pruner", "storage", "study_name", "progress", "baselines", "threads")}
         digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:10]
         return f"{self.dataset}-{self.selector}-{self.model}-{self.optimizer}-{self.split}-s{self.seed}-{digest}"
 
@@ -118,6 +118,7 @@ class FoldResult:
     model: Any = None  # refit on this fold's training part
     selector: Any = None  # fitted on this fold's training part; its ``report_`` (if any) is logged
     efficiency: dict[str, float] = field(default_factory=dict)  # the refit model's costs (core/efficiency.py)
+    train_rows: np.ndarray | None = None  # positions of the rows ``model`` was refitted on (its export's limits)
 
 
 @dataclass
@@ -292,7 +293,7 @@ class _FoldRun:
         return FoldResult(fold.name, self.recording.time_s[fold.test], self.y.iloc[fold.test], preds, metrics,
                           selected=list(selector.selected_), best_params=tuned.params, valid_rmse=tuned.valid_rmse,
                           study=tuned.study, trials_before=tuned.trials_before, model=fitted["model"],
-                          selector=selector, efficiency=cost)
+                          selector=selector, efficiency=cost, train_rows=fold.train)
 
     # ------------------------------------------------------------------------------------------------ the steps
     def select(self, params: dict, rows: np.ndarray):

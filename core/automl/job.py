@@ -117,7 +117,8 @@ def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: lis
     y_test = y_all.iloc[fold.test]
     result = FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
                         {who: evaluate(y_test, p) for who, p in preds.items()}, selected=_selected(model),
-                        best_params=params, valid_rmse=float(inner_score), model=model, efficiency=cost)
+                        best_params=params, valid_rmse=float(inner_score), model=model, efficiency=cost,
+                        train_rows=fold.train)
     job_spec = dataclasses.replace(spec, model=model_name, model_params=params, selector="all", n_trials=0)
     return JobResult(job_spec, [result], splits.make_split(spec.split, seed=spec.seed, **spec.split_params).protocol,
                      notes=list(getattr(recording, "notes", [])), recording=recording)
