@@ -283,8 +283,7 @@ class Listing:
     components: dict[str, list[str]]
     searchpaths: list[str]
     failures: dict[str, str]
-
-    parameters: dict[str, dict[str, list[str] | None]] = field(default_factory=dict)
+    parameters: dict[str, dict[str, list[str] | None]] = field(default_factory=dict)  # kind -> name -> keywords
 
     def names(self, kind: str) -> list[str]:
         """Sorted component names of ``kind``."""
@@ -338,8 +337,7 @@ def _save_listing(reg: Registry, entry_points: list[importlib.metadata.EntryPoin
             files[path] = _stat(path)
     data = {"entry_points": _described(entry_points), "files": files,
             "components": {k: reg.names(k) for k in KINDS}, "parameters": _parameters(reg),
-            "searchpaths": reg.searchpaths,
-            "failures": reg.failures}
+            "searchpaths": reg.searchpaths, "failures": reg.failures}
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         tmp = target.with_suffix(f".{os.getpid()}.tmp")
@@ -367,7 +365,7 @@ def listing() -> Listing:
 
 
 def _parameters(reg: Registry) -> dict[str, dict[str, list[str] | None]]:
-    return {k: {n: parameters(c.factory) for n, c in reg.components[k].items()} for k in KINDS}
+    return {k: {n: reg.params(k, n) for n in reg.names(k)} for k in KINDS}
 
 
 def names(kind: str) -> list[str]:

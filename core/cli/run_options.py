@@ -191,7 +191,7 @@ def _check_group_key(path: list[str], override: str, option: str | None,
                          f"{_did_you_mean(path[1], allowed, group + '.')}; keys of {group}: {', '.join(allowed)}")
     if path[1] != "params" or len(path) < 3 or not kind or not option or "," in option:
         return
-    params = _constructor_params(kind, _component_name(group, option, reg), reg)
+    params = reg.params(kind, _component_name(group, option, reg))  # a Listing keeps them: no plugin imported
     if params is not None and path[2] not in params:
         raise InputError(f"{override}: {group} {option!r} has no parameter {path[2]!r}"
                          f"{_did_you_mean(path[2], sorted(params), f'{group}.params.')}; "
@@ -204,13 +204,6 @@ def _component_name(group: str, option: str, reg: registry.Registry | registry.L
     if found is None:
         return option
     return (yaml.safe_load(found.read_text(encoding="utf-8")) or {}).get("name", option)
-
-
-def _constructor_params(kind: str, name: str, reg: registry.Registry | registry.Listing) -> set[str] | None:
-    """The keyword parameters of a component's factory (kept in the saved listing too, so a misspelt parameter is
-    answered without importing a plugin); None when unknown or open (``**kwargs``)."""
-    params = reg.params(kind, name)
-    return None if params is None else set(params)
 
 
 def _presets() -> dict[str, dict[str, Any]]:
