@@ -67,5 +67,5 @@ class Evaluator:
 
     def score_predictions(self, preds: list[np.ndarray]) -> tuple[list[float], float]:
         """Per-fold RMSE (µm, mean over targets) and the aggregated score of given fold predictions."""
-        rmse = [float(evaluate(t, p)["mean"]["rmse"]) for t, p in zip(self.truth, preds)]
+        rmse = [self.fold_rmse(p, k) for k, p in enumerate(preds)]
         return rmse, aggregate(rmse)
