@@ -242,8 +242,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        group_is_drift = np.array([n != "temperatures" for n in screen.group_names])
-        judged = [rule.judge(f, displacement, group_is_drift, measured, sigma, rows, blocks, val_rows)
+        judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
                   for f in fitted]
         for f, j in zip(fitted, judged):
             f.spread = j.spread
@@ -270,9 +269,11 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             for f, j, d in zip(fitted, judged, discovered):
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": rule.why_not(f, j, d, level, m)})
             break
-        by_judged = [dataclasses.replace(fitted[i], dsse_bal=judged[i].statistic, block_raw=_judged_blocks(
-            fitted[i], judged[i]), block_bal=_judged_blocks(fitted[i], judged[i]))
-            for i in lead]
+        by_judged = []
+        for i in lead:
+            blocks_judged = _judged_blocks(fitted[i], judged[i])
+            by_judged.append(dataclasses.replace(fitted[i], dsse_bal=judged[i].statistic, block_raw=blocks_judged,
+                                                 block_bal=blocks_judged))
         win = passing[by_judged.index(selection.parsimonious(by_judged, level))]
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]

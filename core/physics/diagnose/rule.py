@@ -94,15 +94,22 @@ def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, 
     return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
 
 
+def judged_channels(response: np.ndarray, displacement: np.ndarray) -> np.ndarray:
+    """The channels (bool per channel) a candidate with screening ``response`` (rows × channels) is judged on:
+    the drift channels (``displacement``) when its response reaches one of them, else the temperature channels it
+    changes."""
+    reach = np.abs(response).max(axis=0) > 1e-9
+    return displacement if (reach & displacement).any() else (~displacement & reach)
+
+
 def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
           rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> Judged:
     """The statistics of fitted candidate ``f`` (:class:`.selection.Fitted`) on its judged channels: the drift
     channels (``displacement``, bool per channel) when its response reaches them, else the temperature channels
     its response changes (a lagged sensor's own). ``group_is_drift`` marks the screening's amplitude groups that
     are drift channels."""
-    reach = np.abs(f.candidate.response).max(axis=0) > 1e-9
-    drift = bool((reach & displacement).any())
-    judged = displacement if drift else (~displacement & reach)
+    judged = judged_channels(f.candidate.response, displacement)
+    drift = bool((judged & displacement).any())
     guard = ~judged
     cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
     cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)

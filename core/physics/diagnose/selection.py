@@ -39,6 +39,7 @@ import numpy as np
 from scipy import stats
 
 from thermodrift.core.physics.calibration import UNIDENTIFIABLE_RATIO, FreeParameter, calibrate
+from thermodrift.core.physics.diagnose import rule
 from thermodrift.core.physics.diagnose.noise import NoiseModel
 from thermodrift.core.physics.diagnose.screening import (SHAPES, Candidate, Screen, _basis_of, _place_text, baseline_of,
                                                         restricted)
@@ -157,10 +158,8 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
     displacement channels (bool per channel) for ``val_disp``; ``noise`` whitens the residuals of the fitted
     rows before their sums of squares are compared (:mod:`.noise`; None: white, in units of ``sigma``).
     """
-    judged = None
-    if displacement is not None:  # the fit kept is the better one on the channels it is judged on (:mod:`.rule`)
-        reach = np.abs(cand.response).max(axis=0) > 1e-9
-        judged = displacement if (reach & displacement).any() else (~displacement & reach)
+    # the fit kept is the better one on the channels it is judged on (:mod:`.rule`)
+    judged = None if displacement is None else rule.judged_channels(cand.response, displacement)
     fitted = _fit(cand, base, fit_recording, scenario, channels, measured, sigma, weights, base_readings, rows,
                   blocks, max_evaluations, level, intervals=True, noise=noise, judged=judged)
     if validation is not None:
