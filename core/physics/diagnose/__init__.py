@@ -251,6 +251,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         fitted_ids = {id(f.candidate) for f in fitted}
         pvals = [j.p_value for j in judged] + [c.p_value for c in cands if id(c) not in fitted_ids]
         discovered = benjamini_hochberg(pvals, level)[:len(fitted)]
+        decisive = level / len(fitted)  # a held-out gain decisive at the round's level over the fitted (Bonferroni)
         test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
@@ -259,9 +260,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": rule.passes(f, j, d),
+            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": rule.passes(f, j, d, decisive),
             **j.as_dict()} for f, j, d in zip(fitted, judged, discovered)]
-        ok = [rule.passes(f, j, d) for f, j, d in zip(fitted, judged, discovered)]
+        ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
         # a candidate judged on the drift channels comes first: the drift is what a compensation predicts
         lead = [i for i, o in enumerate(ok) if o and judged[i].group == "drift"] or [i for i, o in enumerate(ok) if o]
         passing = [fitted[i] for i in lead]
