@@ -26,7 +26,7 @@ Pipeline (:func:`diagnose`)::
                   leaves there (the scale of the structural misfit on this machine, in its own units; where the
                   baseline predicts that block within noise, only not worse), without making the other channels
                   worse than their own spread. A held-out gain significant at the round's level over the fitted
-                  candidates may stand in for the likelihood ratio or for the blocks, never both (:mod:`.rule`).
+                  candidates may stand in for the likelihood ratio, never for the blocks (:mod:`.rule`).
                   Of those passing, one judged on the drift comes first. Then screen again on the augmented network (forward selection) until
                   nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
