@@ -244,6 +244,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
+        for f in fitted:  # the blocks of the fitted response (its shape at the fitted values), amplitude left out
+            shaped = dataclasses.replace(f.candidate, response=f.readings - base.readings, parts=[], part_betas=[])
+            f.fitted_cv_blocks = screening.score(screen, shaped, m).cv_blocks
         judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
                   for f in fitted]
         for f, j in zip(fitted, judged):

@@ -72,6 +72,7 @@ class Judged:
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
+    fit_cv: tuple = (0.0, 0.0, 0.0)  # gain, share of blocks improved and t of the fitted response's blocks
 
     @property
     def within_noise(self) -> bool:
@@ -109,7 +110,8 @@ class Judged:
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
-                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p(),
+                "cv_blocks": self.blocks, "fitted_cv_gain": self.fit_cv[0], "fitted_cv_wins": self.fit_cv[1],
+                "fitted_cv_t": self.fit_cv[2], "held_out_p_value": self.held_out_p(),
                 "validation_within_noise": self.within_noise}
 
 
@@ -144,11 +146,10 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     drift = bool((judged & displacement).any())
     guard = ~judged
     cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
-    cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
+    cv_gain, cv_wins, cv_t = _blocked(f.candidate.cv_blocks, cv_w)
+    fitted_cv = getattr(f, "fitted_cv_blocks", None)
+    fit_cv = _blocked(fitted_cv, cv_w) if fitted_cv is not None else (0.0, 0.0, 0.0)
     per_block = f.candidate.cv_blocks @ cv_w
-    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
-    mean = float(np.mean(per_block)) if len(per_block) else 0.0
-    cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
     stat = float(f.drop[judged].sum())
 
     def spread(mask):
@@ -158,7 +159,16 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
                   spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
-                  len(val_rows), judged, len(per_block))
+                  len(val_rows), judged, len(per_block), fit_cv)
+
+
+def _blocked(cv_blocks: np.ndarray, weights: np.ndarray) -> tuple[float, float, float]:
+    """Gain, share of blocks improved and one-sample t statistic of the per-block cross-validated gains."""
+    gain, wins = cv_of(weights, cv_blocks)
+    per_block = cv_blocks @ weights
+    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
+    mean = float(np.mean(per_block)) if len(per_block) else 0.0
+    return gain, wins, (mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0))
 
 
 def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
