@@ -23,10 +23,10 @@ Pipeline (:func:`diagnose`)::
                   and, fitted again without the inner validation block (the last ~20 % of the screening rows,
                   cut at a condition boundary), it predicts that block better than the baseline refitted alike
                   by more per sample than one standard error of the block-to-block spread of the error it
-                  leaves there (the scale of the structural misfit on this machine, in its own units; where the
-                  baseline predicts that block within noise, only not worse), without making the other channels
-                  worse than their own spread. A held-out gain significant at the round's level over the fitted
-                  candidates may stand in for the likelihood ratio, never for the blocks (:mod:`.rule`).
+                  leaves there (the scale of the structural misfit on this machine, in its own units), without
+                  making the other channels worse than their own spread. A held-out gain significant at the
+                  round's level over the fitted candidates may stand in for the likelihood ratio, never for the
+                  blocks (:mod:`.rule`).
                   The blocks' gains are those of the fitted response (its shape at the fitted values). Of those
                   passing, one judged on the drift comes first. Then screen again on the augmented network
                   (forward selection) until nothing passes

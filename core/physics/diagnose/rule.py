@@ -23,10 +23,7 @@ On the judged channels (:func:`judge`):
            on every block, the amplitude is not.
 * held out fitted without the inner validation block, it predicts that block better by more per sample than
            the error it leaves on those channels varies from block to block (its standard error over the
-           condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them). Where the baseline
-           already predicts that block within the sensors' noise (its noise-weighted sum of squares there below
-           the χ² quantile at :data:`NOISE_LEVEL` for that many values) the block holds no misfit to explain and
-           no gain beyond its spread can be asked: the candidate must only not predict it worse.
+           condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
 * guard    the other channels on that block are not worse than :data:`GUARD_SHARE` of the baseline's error
            there or :data:`GUARD_Z` standard errors of their own block-to-block spread.
 
@@ -54,7 +51,6 @@ GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
 CV_LEVEL = 0.10     # one-sided level of the t-test that the per-block cross-validated gain is positive
-NOISE_LEVEL = 0.05  # the baseline's held-out error counts as noise below the χ² quantile at this level
 
 
 @dataclass
@@ -79,17 +75,11 @@ class Judged:
     fit_cv: tuple = (0.0, 0.0, 0.0)  # gain, share of blocks improved and t of the fitted response's blocks
                                      # (what :meth:`consistent` judges; the cv_* fields are the screening's)
 
-    @property
-    def within_noise(self) -> bool:
-        """The baseline predicts the validation block's judged channels within their noise (χ² test)."""
-        values = max(self.n_val, 1) * max(int(np.sum(self.channels)) if self.channels is not None else 1, 1)
-        return self.val_base <= float(stats.chi2.isf(NOISE_LEVEL, values))
-
     def held_out_p(self) -> float:
         """One-sided p-value of the held-out gain per sample over the standard error of the block spread, as a
-        t statistic with (condition blocks − 1) degrees of freedom; 1 where the baseline is within noise there."""
+        t statistic with (condition blocks − 1) degrees of freedom."""
         per = self.val_gain / max(self.n_val, 1)
-        if self.within_noise or per <= 0:
+        if per <= 0:
             return 1.0
         if self.spread <= 0:
             return 0.0
@@ -100,8 +90,6 @@ class Judged:
         return gain > 0 and wins >= MIN_WINS and t >= float(stats.t.isf(CV_LEVEL, max(self.blocks - 1, 1)))
 
     def held_out(self) -> bool:
-        if self.within_noise:
-            return self.val_gain >= 0
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
 
     def guarded(self) -> bool:
@@ -116,8 +104,7 @@ class Judged:
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
                 "cv_blocks": self.blocks, "fitted_cv_gain": self.fit_cv[0], "fitted_cv_wins": self.fit_cv[1],
-                "fitted_cv_t": self.fit_cv[2], "held_out_p_value": self.held_out_p(),
-                "validation_within_noise": self.within_noise}
+                "fitted_cv_t": self.fit_cv[2], "held_out_p_value": self.held_out_p()}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
