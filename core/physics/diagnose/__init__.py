@@ -26,10 +26,8 @@ Pipeline (:func:`diagnose`)::
                   leaves there (the scale of the structural misfit on this machine, in its own units), without
                   making the other channels worse than their own spread. A held-out gain significant at the
                   round's level over the fitted candidates may stand in for the likelihood ratio, never for the
-                  blocks (:mod:`.rule`).
-                  The blocks' gains are those of the fitted response (its shape at the fitted values). Of those
-                  passing, one judged on the drift comes first. Then screen again on the augmented network
-                  (forward selection) until nothing passes
+                  blocks (:mod:`.rule`). Of those passing, one judged on the drift comes first. Then screen
+                  again on the augmented network (forward selection) until nothing passes
     confidence    block-bootstrap inclusion probability (condition blocks resampled; the share of resamples in
                   which the mechanism wins among the fitted candidates and passes the same tests); parameter
                   intervals from the re-simulation fit; a parameter whose interval is not finite, misses its
@@ -245,9 +243,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        for f in fitted:  # the blocks of the fitted response (its shape at the fitted values), amplitude left out
-            shaped = dataclasses.replace(f.candidate, response=f.readings - base.readings, parts=[], part_betas=[])
-            f.fitted_cv_blocks = screening.score(screen, shaped, m).cv_blocks
         judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
                   for f in fitted]
         for f, j in zip(fitted, judged):
@@ -288,7 +283,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         jw = judged[fitted.index(win)]
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
-        test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels", "blocks_improved": jw.fit_cv[1]}
+        test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
         findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
                                  kinds, channels, windows, t, test))
         for f in rivals:
@@ -374,8 +369,8 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
     evidence = (f"{label} explains {share:.0%} of the baseline's whitened misfit on the fitted data "
                 f"({test['test']}: likelihood ratio {win.dsse:.3g} on {win.dof} parameter(s), p = {win.p_value:.2g}, "
                 f"a discovery at false-discovery level {test['level']:g} among {m} candidates; held-out condition "
-                f"blocks improved: {test['blocks_improved']:.0%}; fitted without the inner validation block it predicts"
-                f" that block better than the baseline), as its signature says: {c.signature}")
+                f"blocks improved: {c.cv_wins:.0%}; fitted without the inner validation block it predicts that "
+                f"block better than the baseline), as its signature says: {c.signature}")
     if win.fixed:
         evidence += ("; not identifiable from this data and held at the fitted value: "
                      + ", ".join(f"{k} = {v:.4g}" for k, v in win.fixed.items()))

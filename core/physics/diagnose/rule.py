@@ -14,13 +14,9 @@ On the judged channels (:func:`judge`):
            χ²(free parameters) with nothing missing; the parameters were fitted on every channel, so on a subset
            the drop is at most what fitting that subset alone would give: the test stays valid (conservative).
            The p-values of a round go to Benjamini–Hochberg (:mod:`.noise`).
-* blocks   the condition-blocked cross-validated gain of the fitted response (its shape at the fitted values,
-           its amplitude solved without each block in turn) improves at least half the blocks and its per-block
-           mean is positive by a one-sided t-test at :data:`CV_LEVEL` (consistent over the conditions, not carried
-           by one block where the baseline extrapolates badly). The screening's response, linearised at the start
-           values, describes a nonlinear law poorly: for a bearing heat law on our own generator its blocks gave
-           t 0.92 and −0.77 where the fitted law's give 4.4 and 2.9. The shape parameters (one or two) are fitted
-           on every block, the amplitude is not.
+* blocks   the condition-blocked cross-validated gain of the screening improves at least half the blocks and
+           its per-block mean is positive by a one-sided t-test at :data:`CV_LEVEL` (consistent over the
+           conditions, not carried by one block where the baseline extrapolates badly).
 * held out fitted without the inner validation block, it predicts that block better by more per sample than
            the error it leaves on those channels varies from block to block (its standard error over the
            condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
@@ -72,8 +68,6 @@ class Judged:
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
-    fit_cv: tuple = (0.0, 0.0, 0.0)  # gain, share of blocks improved and t of the fitted response's blocks
-                                     # (what :meth:`consistent` judges; the cv_* fields are the screening's)
 
     def held_out_p(self) -> float:
         """One-sided p-value of the held-out gain per sample over the standard error of the block spread, as a
@@ -86,8 +80,8 @@ class Judged:
         return float(stats.t.sf(per / self.spread, max(self.blocks - 1, 1)))
 
     def consistent(self) -> bool:
-        gain, wins, t = self.fit_cv
-        return gain > 0 and wins >= MIN_WINS and t >= float(stats.t.isf(CV_LEVEL, max(self.blocks - 1, 1)))
+        return (self.cv_gain > 0 and self.cv_wins >= MIN_WINS
+                and self.cv_t >= float(stats.t.isf(CV_LEVEL, max(self.blocks - 1, 1))))
 
     def held_out(self) -> bool:
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
@@ -103,8 +97,7 @@ class Judged:
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
-                "cv_blocks": self.blocks, "fitted_cv_gain": self.fit_cv[0], "fitted_cv_wins": self.fit_cv[1],
-                "fitted_cv_t": self.fit_cv[2], "held_out_p_value": self.held_out_p()}
+                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p()}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -138,10 +131,11 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     drift = bool((judged & displacement).any())
     guard = ~judged
     cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
-    cv_gain, cv_wins, cv_t = _blocked(f.candidate.cv_blocks, cv_w)
-    fitted_cv = getattr(f, "fitted_cv_blocks", None)
-    fit_cv = _blocked(f.candidate.cv_blocks if fitted_cv is None else fitted_cv, cv_w)
+    cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
     per_block = f.candidate.cv_blocks @ cv_w
+    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
+    mean = float(np.mean(per_block)) if len(per_block) else 0.0
+    cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
     stat = float(f.drop[judged].sum())
 
     def spread(mask):
@@ -151,16 +145,7 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
                   spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
-                  len(val_rows), judged, len(per_block), fit_cv)
-
-
-def _blocked(cv_blocks: np.ndarray, weights: np.ndarray) -> tuple[float, float, float]:
-    """Gain, share of blocks improved and one-sample t statistic of the per-block cross-validated gains."""
-    gain, wins = cv_of(weights, cv_blocks)
-    per_block = cv_blocks @ weights
-    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
-    mean = float(np.mean(per_block)) if len(per_block) else 0.0
-    return gain, wins, (mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0))
+                  len(val_rows), judged, len(per_block))
 
 
 def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
@@ -185,9 +170,8 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
     if f.outside:
         return "fits only with unphysical values: " + "; ".join(f.outside)
     if not j.consistent():
-        gain, wins, t = j.fit_cv
         return (f"held-out condition blocks do not improve consistently on the {where} channels (gain "
-                f"{gain:.3g}, {wins:.0%} of blocks, t = {t:.2f} over {j.blocks} blocks)")
+                f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks)")
     per = j.val_gain / max(j.n_val, 1)
     if j.val_gain > 0 and not j.held_out():
         return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "

@@ -90,7 +90,6 @@ class Fitted:
     block_drop: Any = None  # (blocks, channels): the same per condition block
     val_drop: Any = None   # per channel: drop of the noise-weighted sum of squares on the inner validation block
     val_base: Any = None   # per channel: the baseline's noise-weighted sum of squares there
-    fitted_cv_blocks: Any = None  # (blocks, groups): the screening's blocked gains of the fitted response
 
 
 def _declared(cand: Candidate, base: Network,
