@@ -81,6 +81,7 @@ def test_cli_writes_report_json_in_the_issue_shape(cutting_case, tmp_path):
         assert list(f)[:6] == ["mechanism", "confidence", "parameters", "ci", "where", "evidence"]
         assert 0 <= f["confidence"] <= 1 and isinstance(f["evidence"], str)
         assert f["test"] and f["statistic"] > 0 and 0 < f["fdr_level"] < 1 and f["p_value"] < f["fdr_level"]
+        assert f["route"] in ("likelihood ratio, blocks and held-out gain", "decisive held-out gain and blocks")
         assert set(f["ci"]) == set(f["parameters"]) and all(  # truthful: finite and containing the value
             np.isfinite(f["ci"][k]).all() and f["ci"][k][0] <= v <= f["ci"][k][1] for k, v in f["parameters"].items())
         assert not set(f["fixed"]) & set(f["parameters"]) and all(k in f["evidence"] for k in f["fixed"])

@@ -7,6 +7,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from thermodrift.core.physics.diagnose import rule
 
@@ -117,7 +118,8 @@ def test_a_decisive_held_out_gain_stands_in_for_the_test_never_for_the_blocks():
     strong = dict(val_drop=(0.0, 90.0))  # 1.8 noise variances per sample better on a block missed by 2 per sample
     f_ok, f_spiky = _fitted(thermal, READINGS, **strong), _fitted(thermal, READINGS, cv_blocks=spiky, **strong)
     j_ok, j_spiky = rule.judge(f_ok, *case), rule.judge(f_spiky, *case)
-    assert j_ok.held_out_p() < 1e-4
+    assert j_ok.held_out_p() < 1e-4 and j_ok.held_out_t() == pytest.approx(1.8 / j_ok.spread)
+    assert j_ok.three_lines(True) and not j_ok.three_lines(False)
     assert rule.passes(f_ok, j_ok, False, decisive_level=1e-3)        # the test missed, the blocks hold
     assert not rule.passes(f_spiky, j_spiky, True, decisive_level=1e-3)   # the blocks missed
     assert not rule.passes(f_ok, j_ok, False)  # no decisive level: the three lines of evidence are needed

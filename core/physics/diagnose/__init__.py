@@ -280,10 +280,16 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
                   and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
         inclusion = selection.bootstrap_inclusion(fitted, int(blocks.max()) + 1, m, level, bootstrap, seed + round_)
-        jw = judged[fitted.index(win)]
+        jw, dw = judged[fitted.index(win)], discovered[fitted.index(win)]
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
         test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
+        if not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
+            test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
+                                    "the condition blocks, Bonferroni over the fitted candidates at the round's "
+                                    f"level, with the condition blocks consistent; judged on the {jw.group} channels",
+                    "decisive": {"t": jw.held_out_t(), "dof": max(jw.blocks - 1, 1), "p": jw.held_out_p(),
+                                 "each": decisive, "fitted": len(fitted)}}
         findings.append(_finding(win, rivals, inclusion, screen, m, measured, base.readings, win.readings, sigma,
                                  kinds, channels, windows, t, test))
         for f in rivals:
@@ -366,11 +372,20 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
     conf = float(inclusion.get(c.mechanism, 0.0))
     share = win.dsse_bal / screen.sse0_bal if screen.sse0_bal > 0 else 0.0
     label = fitted_label(win)
+    lr = f"likelihood ratio {win.dsse:.3g} on {win.dof} parameter(s), p = {win.p_value:.2g}, "
+    statistic, dof, p_value = float(win.dsse), int(win.dof), float(win.p_value)
+    if "decisive" in test:
+        d = test["decisive"]
+        claim = (lr + f"not a discovery at false-discovery level {test['level']:g} among {m} candidates; its "
+                 f"held-out gain is decisive instead: t = {d['t']:.3g} on {d['dof']} degrees of freedom, p = "
+                 f"{d['p']:.2g}, below {d['each']:.2g} (the round's level over the {d['fitted']} fitted candidates)")
+        statistic, dof, p_value = float(d["t"]), int(d["dof"]), float(d["p"])
+    else:
+        claim = lr + f"a discovery at false-discovery level {test['level']:g} among {m} candidates"
     evidence = (f"{label} explains {share:.0%} of the baseline's whitened misfit on the fitted data "
-                f"({test['test']}: likelihood ratio {win.dsse:.3g} on {win.dof} parameter(s), p = {win.p_value:.2g}, "
-                f"a discovery at false-discovery level {test['level']:g} among {m} candidates; held-out condition "
-                f"blocks improved: {c.cv_wins:.0%}; fitted without the inner validation block it predicts that "
-                f"block better than the baseline), as its signature says: {c.signature}")
+                f"({test['test']}: {claim}; held-out condition blocks improved: {c.cv_wins:.0%}; fitted without the "
+                f"inner validation block it predicts that block better than the baseline), as its signature says: "
+                f"{c.signature}")
     if win.fixed:
         evidence += ("; not identifiable from this data and held at the fitted value: "
                      + ", ".join(f"{k} = {v:.4g}" for k, v in win.fixed.items()))
@@ -384,8 +399,10 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
             "where": [{k: (round(v, 1) if isinstance(v, float) else v) for k, v in w.items() if k != "window"}
                       for w in where],
             "evidence": evidence + ".",
-            "test": test["test"], "statistic": round(float(win.dsse), 4), "dof": int(win.dof),
-            "p_value": float(f"{win.p_value:.4g}"), "fdr_level": test["level"],
+            "test": test["test"], "statistic": round(statistic, 4), "dof": dof,
+            "p_value": float(f"{p_value:.4g}"), "fdr_level": test["level"],
+            "route": ("decisive held-out gain and blocks" if "decisive" in test
+                      else "likelihood ratio, blocks and held-out gain"),
             "fixed": {k: _round(v) for k, v in win.fixed.items()}, "label": label,
             "_place": c.options, "_shape": c.shape, "_windows": [w["window"] for w in where],
             "_gain_share": share}

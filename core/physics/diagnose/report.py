@@ -12,7 +12,9 @@ neither screening, selection nor fitting saw)::
      "verdict": "one paragraph"}
 
 Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``, ``p_value``, ``fdr_level``,
-``fixed`` (parameters the data cannot identify, held at their fitted value) and ``label``; at the top level
+``fixed`` (parameters the data cannot identify, held at their fitted value), ``label`` and ``route`` (which
+evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
+whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
 its residual's correlation, its validation error against its fitted error, the hidden-node counts tried).
 
@@ -41,7 +43,7 @@ def _r(x: float) -> float:
 def to_json(d) -> dict[str, Any]:
     fit, final = d.fit_rows, ~d.fit_rows
     findings = [{k: f[k] for k in ("mechanism", "confidence", "parameters", "ci", "where", "evidence", "test",
-                                   "statistic", "dof", "p_value", "fdr_level", "fixed", "label") if k in f}
+                                   "statistic", "dof", "p_value", "fdr_level", "fixed", "label", "route") if k in f}
                 for f in d.findings]
     return {
         "baseline": {"rmse_um": {c: _r(v) for c, v in d.rmse(d.baseline, fit).items()},
@@ -175,7 +177,9 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
         lines.append("None.")
     for f in d.findings:
         lines += [f"### {f.get('label', f['mechanism'])} (confidence {f['confidence']:.2f})", "",
-                  f"Test: {f['test']}; statistic {f['statistic']:.4g} ({f['dof']} parameters), p = {f['p_value']:.2g}; "
+                  f"Test: {f['test']}; statistic {f['statistic']:.4g} ({f['dof']} "
+                  f"{'degrees of freedom' if f.get('route', '').startswith('decisive') else 'parameters'}), "
+                  f"p = {f['p_value']:.2g}; "
                   f"false-discovery level {f['fdr_level']:g}.", "", f["evidence"], "",
                   "| parameter | fitted value | interval |", "|---|---:|---|"]
         for k, v in f["parameters"].items():

@@ -69,15 +69,21 @@ class Judged:
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
 
-    def held_out_p(self) -> float:
-        """One-sided p-value of the held-out gain per sample over the standard error of the block spread, as a
-        t statistic with (condition blocks − 1) degrees of freedom."""
+    def held_out_t(self) -> float:
+        """The held-out gain per sample over the standard error of the block spread."""
         per = self.val_gain / max(self.n_val, 1)
-        if per <= 0:
+        return per / self.spread if self.spread > 0 else (np.inf if per > 0 else 0.0)
+
+    def held_out_p(self) -> float:
+        """One-sided p-value of :meth:`held_out_t` as a t statistic with (condition blocks − 1) degrees of
+        freedom."""
+        if self.val_gain <= 0:
             return 1.0
-        if self.spread <= 0:
-            return 0.0
-        return float(stats.t.sf(per / self.spread, max(self.blocks - 1, 1)))
+        return float(stats.t.sf(self.held_out_t(), max(self.blocks - 1, 1)))
+
+    def three_lines(self, discovered: bool) -> bool:
+        """The test, the blocks and the held-out gain all hold (the guard aside)."""
+        return discovered and self.consistent() and self.held_out()
 
     def consistent(self) -> bool:
         return (self.cv_gain > 0 and self.cv_wins >= MIN_WINS
@@ -153,7 +159,7 @@ def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
     held-out gain is decisive (the round's level over the number of fitted candidates; 0: never)."""
     if not (j.statistic > 0 and not f.outside and j.guarded()):
         return False
-    if discovered and j.consistent() and j.held_out():
+    if j.three_lines(discovered):
         return True
     return j.held_out_p() < decisive_level and j.consistent()
 
