@@ -51,6 +51,7 @@ from pathlib import Path
 import numpy as np
 
 from thermodrift.core import physics, registry
+from thermodrift.core.errors import InputError
 from thermodrift.core.physics.diagnose import diagnose
 from thermodrift.core.physics.diagnose.concealed import concealed_case, random_network
 
@@ -432,7 +433,11 @@ def main_independent(args, done: dict, start: float) -> int:
                 continue
             gen = independent.make_case(seed, hidden, dt_s=dt, constant_drivers=constant, generator=args.generator)
             gen.name = name
-            r = run_independent(gen, args.seed, Path(tmp))
+            try:
+                r = run_independent(gen, args.seed, Path(tmp))
+            except InputError as exc:  # the generator's recording is unusable (a planted feedback ran away)
+                print(f"{name:<44} not diagnosed: {exc}", file=sys.stderr, flush=True)
+                continue
             rows.append(r)
             if args.results:
                 with args.results.open("a", encoding="utf-8") as fh:
