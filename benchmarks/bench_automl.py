@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import time
 import warnings
 from pathlib import Path
@@ -182,6 +183,8 @@ def inner_table(name: str, args) -> str:
     folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
     ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
     fams = [f for f in space.families() if not f.network]
+    saved = {"folds": [f.name for f in folds], "fold_truth": [t.to_numpy() for t in ev.truth],
+             "truth": recording.data[targets].iloc[fold.test].to_numpy(), "candidates": []}
     lines = [f"{name}: inner folds " + "; ".join(f.name.removeprefix("inner: ") for f in folds),
              "| candidate | " + " | ".join(f"fold {k + 1}" for k in range(len(folds))) + " | inner score | held out |",
              "|---|" + "---:|" * (len(folds) + 2)]
@@ -192,9 +195,14 @@ def inner_table(name: str, args) -> str:
             model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
             pred = predict_rows(model, ev.X, fold.test)
         out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
+        saved["candidates"].append({"label": space.describe(cand.params), "params": cand.params,
+                                    "fold_pred": e.predictions, "pred": np.asarray(pred)})
         lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
                      + f" | {e.score:.2f} | {out:.2f} |")
         print(lines[-1], flush=True)
+    args.cache.mkdir(parents=True, exist_ok=True)
+    with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "wb") as fh:  # to compare selection rules offline
+        pickle.dump(saved, fh)
     return "\n".join(lines)
 
 
@@ -250,7 +258,8 @@ def main() -> None:
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
     parser.add_argument("--inner-table", action="store_true",
-                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task")
+                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task (predictions "
+                             "kept in --cache as <task>-inner-s<seed>.pkl)")
     args = parser.parse_args()
     if args.inner_table:
         for name in args.tasks or QUICK["tasks"]:
