@@ -342,6 +342,10 @@ def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_with_fl
     np.testing.assert_allclose(hedge["fold_rmse"], [0.05, 0.025], atol=1e-9)  # their errors partly cancel
     assert [m["model_params"]["alpha"] for m in hedge["members"]] == [0.0, 1.0]
     assert search._hedge([best, twin, far], best) is None  # nothing but the best itself
+    tuned = [entry(ev, 4 + i, [1.0 + 0.01 * i, -1.0]) for i in range(3)]  # near-copies from one family's TPE
+    for e in tuned:
+        e.phase = "tpe"
+    assert search._hedge([best, close] + tuned, best)["numbers"] == [0, 4, 1]  # its best one alone takes part
 
     ev1, search1 = search_on(1)
     assert search1._hedge([entry(ev1, 0, [1.0]), entry(ev1, 1, [-1.0])], entry(ev1, 0, [1.0])) is None

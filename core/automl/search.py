@@ -296,16 +296,23 @@ class Search:
         set; :func:`earns_its_place` with the roles turned). Inside that set the folds rank by noise, and on a new
         working condition the candidates extrapolate differently (filter banks, penalties, physics), so fitting
         weights on the same folds would fit their noise; a flat average hedges across them (model averaging
-        under model uncertainty). Identical predictions (one model under two names, a setting without effect)
-        count once; at most ``ensemble_pool`` members, best first. None with one inner fold (no noise to estimate)
-        or when fewer than two members remain: then the greedy ensemble decides (:meth:`_ensemble`)."""
+        under model uncertainty). Each a-priori candidate (fixed in advance as a distinct hypothesis) takes part,
+        but of TPE's candidates only each family's best: they are variations around one mode of the sampler (at
+        a larger budget dozens of near-copies) and would otherwise outvote the rest. Identical predictions (one
+        model under two names, a setting without effect) count once; at most ``ensemble_pool`` members, best
+        first. None with one inner fold (no noise to estimate) or when fewer than two members remain: then the
+        greedy ensemble decides (:meth:`_ensemble`)."""
         if len(self.ev.folds) < 2:
             return None
         ref = best.evaluation.fold_rmse
         members: list[tuple[Entry, list[np.ndarray]]] = []
+        tuned: set[str] = set()
         for e in sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number)):
-            if not np.isfinite(e.score) or earns_its_place(ref, e.evaluation.fold_rmse):
+            if not np.isfinite(e.score) or earns_its_place(ref, e.evaluation.fold_rmse) or (
+                    e.phase == "tpe" and e.candidate.family in tuned):
                 continue
+            if e.phase == "tpe":
+                tuned.add(e.candidate.family)
             preds = self._predictions(e)
             if any(all(np.allclose(p, q) for p, q in zip(preds, other)) for _, other in members):
                 continue
