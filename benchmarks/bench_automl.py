@@ -1,10 +1,10 @@
 """AutoML benchmark: ``thermodrift automl`` against the best single family chosen with hindsight and FLAML.
 
-Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under three condition-held-out
+Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under eight condition-held-out
 splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm, 4500 rpm and
 3750 rpm conditions held out, each training on every earlier condition; the final block of short runs,
-500/1500/2500/4500 rpm, held out after training on t < 40.13 h; the first 2500 rpm run and the 3750 rpm run held
-out, each training on the other conditions of the first 40 h), and the four reference
+500/1500/2500/4500 rpm, held out after training on t < 40.13 h; the first 2500 rpm run, the 3750 rpm run and the
+5000 rpm run held out, each training on the other conditions of the first 40 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
 their last working condition held out, every displacement channel). The default run is two small reference
 machines with small budgets (under 10 minutes on 2 cores).
@@ -60,7 +60,8 @@ TASKS = {
     "fl_final": {**FL, "split": "time_window", "split_params": {"train_end_h": 40.13, "test_start_h": 40.13}},
     "fl_3750rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3750rpm"]}},
     **{f"fl_{c.split('_')[1]}_others40": {**FL, "split": "condition_holdout", "split_params": {
-        "test_conditions": [c], "train_on": "others", "train_end_h": 40.13}} for c in ("c02_2500rpm", "c03_3750rpm")},
+        "test_conditions": [c], "train_on": "others", "train_end_h": 40.13}}
+       for c in ("c02_2500rpm", "c03_3750rpm", "c04_5000rpm")},
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
