@@ -29,8 +29,9 @@ Run::
     python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
         [--budgets FITS ...] [--hindsight-trials N]
 
-``--budgets`` replaces the set's budgets (the default budget is always run) and ``--hindsight-trials`` its TPE
-trials per family for the hindsight best, so a piece of ``--full`` fits a time slot; the cache file names both.
+``--budgets`` replaces the set's budgets (the default budget is always run), ``--hindsight-trials`` its TPE
+trials per family for the hindsight best and ``--hindsight-families`` the families tried for it, so a piece of
+``--full`` fits a time slot; the cache file names them.
 """
 
 from __future__ import annotations
@@ -164,7 +165,7 @@ def run_task(name: str, conf: dict, args) -> dict:
         print(f"  {name}: automl budget {b}: held-out RMSE {r['rmse']:.3f} µm in {r['wall_s']:.0f} s "
               f"({r['cpu_s']:.0f} s of CPU; {r['chosen']})", flush=True)
     default = next(r for r in runs if r["budget"] == conf["default"])
-    best = hindsight(spec, recording, conf["families"], conf["tpe"])
+    best = hindsight(spec, recording, args.hindsight_families or conf["families"], conf["tpe"])
     print(f"  {name}: hindsight best {best['best']} {best['rmse']:.3f} µm", flush=True)
     flaml = flaml_scores(spec, recording, default["wall_s"])
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
@@ -267,6 +268,8 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
+    parser.add_argument("--hindsight-families", nargs="*",
+                        help="only these families for the hindsight best (e.g. the cheap ones with TPE trials)")
     parser.add_argument("--inner-table", action="store_true",
                         help="instead: each portfolio candidate's inner-fold and held-out RMSE per task (predictions "
                              "kept in --cache as <task>-inner-s<seed>.pkl)")
@@ -283,6 +286,8 @@ def main() -> None:
     tag = "full" if args.full else "quick"
     if args.budgets is not None or args.hindsight_trials is not None:
         tag += f"-b{'_'.join(map(str, sorted(set(conf['budgets']))))}-t{conf['tpe']}"
+    if args.hindsight_families:
+        tag += "-h" + "_".join(sorted(args.hindsight_families))
     names = args.tasks or (list(TASKS) if args.full else QUICK["tasks"])
     unknown = [n for n in names if n not in TASKS]
     if unknown:
