@@ -1,9 +1,10 @@
 """AutoML benchmark: ``thermodrift automl`` against the best single family chosen with hindsight and FLAML.
 
-Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under three condition-held-out
-splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm condition held out,
-training on every earlier condition; the 4500 rpm condition held out, the last one; the final block of short
-runs, 500/1500/2500/4500 rpm, held out after training on t < 40.13 h), and the four reference
+Tasks (``--full``): FL_THERMAL (``--data``, the workbook) with ch3 as target under eight condition-held-out
+splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h; the 3500 rpm, 4500 rpm and
+3750 rpm conditions held out, each training on every earlier condition; the final block of short runs,
+500/1500/2500/4500 rpm, held out after training on t < 40.13 h; the first 2500 rpm run, the 3750 rpm run and the
+5000 rpm run held out, each training on the other conditions of the first 40 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
 their last working condition held out, every displacement channel). The default run is two small reference
 machines with small budgets (under 10 minutes on 2 cores).
@@ -28,14 +29,16 @@ Run::
     python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
         [--budgets FITS ...] [--hindsight-trials N]
 
-``--budgets`` replaces the set's budgets (the default budget is always run) and ``--hindsight-trials`` its TPE
-trials per family for the hindsight best, so a piece of ``--full`` fits a time slot; the cache file names both.
+``--budgets`` replaces the set's budgets (the default budget is always run), ``--hindsight-trials`` its TPE
+trials per family for the hindsight best and ``--hindsight-families`` the families tried for it, so a piece of
+``--full`` fits a time slot; the cache file names them.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import pickle
 import time
 import warnings
 from pathlib import Path
@@ -56,6 +59,10 @@ TASKS = {
     "fl_3500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3500rpm"]}},
     "fl_4500rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["4500rpm"]}},
     "fl_final": {**FL, "split": "time_window", "split_params": {"train_end_h": 40.13, "test_start_h": 40.13}},
+    "fl_3750rpm": {**FL, "split": "condition_holdout", "split_params": {"test_conditions": ["3750rpm"]}},
+    **{f"fl_{c.split('_')[1]}_others40": {**FL, "split": "condition_holdout", "split_params": {
+        "test_conditions": [c], "train_on": "others", "train_end_h": 40.13}}
+       for c in ("c02_2500rpm", "c03_3750rpm", "c04_5000rpm")},
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
@@ -158,7 +165,7 @@ def run_task(name: str, conf: dict, args) -> dict:
         print(f"  {name}: automl budget {b}: held-out RMSE {r['rmse']:.3f} µm in {r['wall_s']:.0f} s "
               f"({r['cpu_s']:.0f} s of CPU; {r['chosen']})", flush=True)
     default = next(r for r in runs if r["budget"] == conf["default"])
-    best = hindsight(spec, recording, conf["families"], conf["tpe"])
+    best = hindsight(spec, recording, args.hindsight_families or conf["families"], conf["tpe"])
     print(f"  {name}: hindsight best {best['best']} {best['rmse']:.3f} µm", flush=True)
     flaml = flaml_scores(spec, recording, default["wall_s"])
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
@@ -178,6 +185,8 @@ def inner_table(name: str, args) -> str:
     folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
     ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
     fams = [f for f in space.families() if not f.network]
+    saved = {"folds": [f.name for f in folds], "fold_truth": [t.to_numpy() for t in ev.truth],
+             "truth": recording.data[targets].iloc[fold.test].to_numpy(), "candidates": []}
     lines = [f"{name}: inner folds " + "; ".join(f.name.removeprefix("inner: ") for f in folds),
              "| candidate | " + " | ".join(f"fold {k + 1}" for k in range(len(folds))) + " | inner score | held out |",
              "|---|" + "---:|" * (len(folds) + 2)]
@@ -188,9 +197,14 @@ def inner_table(name: str, args) -> str:
             model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
             pred = predict_rows(model, ev.X, fold.test)
         out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
+        saved["candidates"].append({"label": space.describe(cand.params), "params": cand.params,
+                                    "fold_pred": e.predictions, "pred": np.asarray(pred)})
         lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
                      + f" | {e.score:.2f} | {out:.2f} |")
         print(lines[-1], flush=True)
+    args.cache.mkdir(parents=True, exist_ok=True)
+    with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "wb") as fh:  # to compare selection rules offline
+        pickle.dump(saved, fh)
     return "\n".join(lines)
 
 
@@ -216,22 +230,31 @@ def table(results: list[dict]) -> str:
 
 
 def figure(results: list[dict], path: Path) -> None:
+    """Held-out RMSE / hindsight best per budget: against the budget in fits (deterministic) and against wall time
+    (load-dependent; points joined in budget order), with FLAML at automl's default-budget wall time (x)."""
     from matplotlib.figure import Figure
+    from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-    fig = Figure(figsize=(7, 4))
-    ax = fig.subplots()
+    fig = Figure(figsize=(11, 4))
+    by_fits, by_time = fig.subplots(1, 2, sharey=True)
     for i, r in enumerate(results):
-        pts = sorted((a["wall_s"], a["rmse"] / r["hindsight"]["rmse"]) for a in r["automl"])
-        ax.plot(*zip(*pts), "o-", color=f"C{i}", label=r["task"])
+        runs = sorted(r["automl"], key=lambda a: a["budget"])
+        ratio = [a["rmse"] / r["hindsight"]["rmse"] for a in runs]
+        by_fits.plot([a["budget"] for a in runs], ratio, "o-", color=f"C{i}", label=r["task"])
+        by_time.plot([a["wall_s"] for a in runs], ratio, "o-", color=f"C{i}")
         if r["flaml"]:
-            fl = min(r["flaml"].values()) / r["hindsight"]["rmse"]
             d = next(a for a in r["automl"] if a["budget"] == r["default_budget"])
-            ax.plot([d["wall_s"]], [fl], "x", color=f"C{i}", ms=8)
-    ax.axhline(1.2, color="0.5", lw=0.8, ls="--")
-    ax.set_xscale("log")
-    ax.set_xlabel("wall time (s; o: automl at its budgets, x: FLAML)")
-    ax.set_ylabel("held-out RMSE / hindsight best")
-    ax.legend(fontsize=7)
+            by_time.plot([d["wall_s"]], [min(r["flaml"].values()) / r["hindsight"]["rmse"]], "x", color=f"C{i}",
+                         ms=8)
+    for ax, label in ((by_fits, "budget (fits)"), (by_time, "wall time (s; o: automl, x: FLAML)")):
+        ax.axhline(1.2, color="0.5", lw=0.8, ls="--")
+        ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(ScalarFormatter())
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.set_xlabel(label)
+    by_fits.set_xticks(sorted({a["budget"] for r in results for a in r["automl"]}))
+    by_fits.set_ylabel("held-out RMSE / hindsight best")
+    by_fits.legend(fontsize=7)
     fig.savefig(path, dpi=110, bbox_inches="tight")
 
 
@@ -245,8 +268,11 @@ def main() -> None:
     parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
+    parser.add_argument("--hindsight-families", nargs="*",
+                        help="only these families for the hindsight best (e.g. the cheap ones with TPE trials)")
     parser.add_argument("--inner-table", action="store_true",
-                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task")
+                        help="instead: each portfolio candidate's inner-fold and held-out RMSE per task (predictions "
+                             "kept in --cache as <task>-inner-s<seed>.pkl)")
     args = parser.parse_args()
     if args.inner_table:
         for name in args.tasks or QUICK["tasks"]:
@@ -260,6 +286,8 @@ def main() -> None:
     tag = "full" if args.full else "quick"
     if args.budgets is not None or args.hindsight_trials is not None:
         tag += f"-b{'_'.join(map(str, sorted(set(conf['budgets']))))}-t{conf['tpe']}"
+    if args.hindsight_families:
+        tag += "-h" + "_".join(sorted(args.hindsight_families))
     names = args.tasks or (list(TASKS) if args.full else QUICK["tasks"])
     unknown = [n for n in names if n not in TASKS]
     if unknown:

@@ -79,14 +79,18 @@ class ConditionHoldout(Split):
 
     ``test_conditions``: labels, or substrings such as ``"5000rpm"`` matched against labels; default the last
     condition. ``train_on``: ``"before"`` (only conditions that precede the held-out ones, as a deployed model
-    would see them) or ``"others"`` (every other condition).
+    would see them) or ``"others"`` (every other condition). ``train_end_h``: training rows only before this
+    time (hours from the start), e.g. the other conditions of a recording's first 40 h.
     """
 
-    def __init__(self, test_conditions: list[str] | None = None, train_on: str = "before"):
+    def __init__(self, test_conditions: list[str] | None = None, train_on: str = "before",
+                 train_end_h: float | None = None):
         if train_on not in ("before", "others"):
             raise InputError(f"split.train_on must be 'before' or 'others', got {train_on!r}")
+        if train_end_h is not None and not train_end_h > 0:
+            raise InputError(f"split.train_end_h must be positive or null, got {train_end_h!r}")
         self.test_conditions = list(test_conditions) if test_conditions else None
-        self.train_on = train_on
+        self.train_on, self.train_end_h = train_on, train_end_h
 
     def folds(self, recording) -> list[Fold]:
         labels = recording.conditions().to_numpy()
@@ -105,7 +109,15 @@ class ConditionHoldout(Split):
             train_mask[:first] = True
         else:
             train_mask = ~test_mask
-        return [_fold(np.flatnonzero(train_mask), np.flatnonzero(test_mask), f"held out: {', '.join(held)}")]
+        name = f"held out: {', '.join(held)}"
+        if self.train_end_h is not None:
+            train_mask &= (recording.time_s - recording.time_s[0]) / 3600.0 < self.train_end_h
+            name += f"; trained on t < {self.train_end_h:g} h"
+        if not train_mask.any():
+            raise InputError(f"{recording.source}: no training rows are left before the held-out conditions {held}"
+                             + (f" and t < {self.train_end_h:g} h" if self.train_end_h is not None else ""),
+                             hint="hold out a later condition, use train_on=others, or raise split.train_end_h")
+        return [_fold(np.flatnonzero(train_mask), np.flatnonzero(test_mask), name)]
 
 
 class TimeWindow(Split):

@@ -291,6 +291,7 @@ def test_a_tuned_candidate_enters_the_final_choice_only_when_it_beats_the_a_prio
     assert earns_its_place([0.90, 0.95, 0.92], [1.0, 1.0, 1.0])
     assert not earns_its_place([0.2, 1.1, 1.2], [1.0, 1.0, 1.0])  # a mean gain within the fold noise
     assert not earns_its_place([np.nan, 0.1], [1.0, 1.0])
+    assert not earns_its_place([0.5], [1.0])  # one fold: no noise estimate, so no gain is shown
 
     rec = tiny_recording()
     (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
@@ -309,3 +310,42 @@ def test_a_tuned_candidate_enters_the_final_choice_only_when_it_beats_the_a_prio
     assert [e.number for e in eligible] == [0, 2]
     assert search._best(eligible) is steady
     assert said and "1 TPE candidate" in said[0]
+
+
+def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_with_flat_weights():
+    import optuna
+
+    from thermodrift.core.automl.evaluate import Evaluation
+    from thermodrift.core.automl.search import Entry, Search
+
+    rec = tiny_recording()
+    (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
+
+    def search_on(n_folds):
+        ev = Evaluator(rec, outer.train, ["disp_z_um"], inner.inner_folds(rec, outer.train, n_folds))
+        assert len(ev.folds) == n_folds
+        return ev, Search(ev, optuna.create_study(), Settings(families=["mlr"]), progress=False)
+
+    def entry(ev, number, offsets):  # predictions off the truth by a constant per fold: RMSE = |offset| (µm)
+        preds = [t.to_numpy() + c for t, c in zip(ev.truth, offsets)]
+        rmse, score = ev.score_predictions(preds)
+        cand = space.Candidate({"model": "mlr", "model_params": {"alpha": float(number)}, "selector": "all",
+                                "selector_params": {}, "features": None}, origin="portfolio")
+        return Entry(number, cand, Evaluation(rmse, {}, score, preds), phase="portfolio")
+
+    ev, search = search_on(2)
+    best, close, twin, far = (entry(ev, 0, [1.0, 1.0]), entry(ev, 1, [-1.1, -0.95]), entry(ev, 2, [1.0, 1.0]),
+                              entry(ev, 3, [3.0, 3.0]))
+    hedge = search._hedge([far, close, twin, best], best)
+    assert hedge["numbers"] == [0, 1]  # the twin predicts as the best does and counts once; far is beaten
+    assert hedge["weights"] == [0.5, 0.5]
+    np.testing.assert_allclose(hedge["fold_rmse"], [0.05, 0.025], atol=1e-9)  # their errors partly cancel
+    assert [m["model_params"]["alpha"] for m in hedge["members"]] == [0.0, 1.0]
+    assert search._hedge([best, twin, far], best) is None  # nothing but the best itself
+    tuned = [entry(ev, 4 + i, [1.0 + 0.01 * i, -1.0]) for i in range(3)]  # near-copies from one family's TPE
+    for e in tuned:
+        e.phase = "tpe"
+    assert search._hedge([best, close] + tuned, best)["numbers"] == [0, 4, 1]  # its best one alone takes part
+
+    ev1, search1 = search_on(1)
+    assert search1._hedge([entry(ev1, 0, [1.0]), entry(ev1, 1, [-1.0])], entry(ev1, 0, [1.0])) is None

@@ -42,6 +42,21 @@ def test_condition_holdout_by_substring_and_others(rec):
         ConditionHoldout(test_conditions=["9999rpm"]).folds(rec)
 
 
+def test_condition_holdout_train_end_limits_the_training_rows(rec):
+    labels = rec.conditions().to_numpy()
+    h = (rec.time_s - rec.time_s[0]) / 3600
+    (others,) = ConditionHoldout(test_conditions=["4000rpm"], train_on="others").folds(rec)
+    end = float(h[others.test].max()) + 0.5  # some conditions after the held-out one stay, later ones go
+    (limited,) = ConditionHoldout(test_conditions=["4000rpm"], train_on="others", train_end_h=end).folds(rec)
+    assert h[limited.train].max() < end and np.array_equal(limited.test, others.test)
+    assert set(limited.train) < set(others.train) and h[limited.train].max() > h[limited.test].max()
+    assert not set(labels[limited.train]) & set(labels[limited.test])
+    with pytest.raises(InputError, match="no training rows"):
+        ConditionHoldout(test_conditions=[labels[0]], train_end_h=h[-1]).folds(rec)
+    with pytest.raises(InputError, match="train_end_h"):
+        ConditionHoldout(train_end_h=0)
+
+
 def test_time_window(rec):
     (fold,) = TimeWindow(train_end_h=2.0, test_start_h=2.5, test_end_h=4.0).folds(rec)
     h = rec.time_s / 3600

@@ -1,4 +1,5 @@
-"""The leaderboard: one row per candidate (failures included) and the greedy ensemble, as CSV and Markdown.
+"""The leaderboard: one row per candidate (failures included) and the chosen ensemble (the one-SE average or the
+greedy ensemble, its ``kind`` in ``params``), as CSV and Markdown.
 
 Columns: ``rank`` (by ``inner_score``; failed rows last), ``trial``, ``model`` (the registry name of the inner
 model, or ``ensemble``), ``selector``, ``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe,
@@ -46,7 +47,8 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
         row = {"trial": -1, "model": "ensemble", "selector": "", "features": "",
                "rung": 0, "phase": "ensemble", "status": "ok", "inner_score": ensemble["score"],
                **{f"fold{k + 1}_rmse": v for k, v in enumerate(ensemble["fold_rmse"])},
-               "params": json.dumps({"members": ensemble["numbers"], "weights": ensemble["weights"]}), "error": ""}
+               "params": json.dumps({"members": ensemble["numbers"], "weights": ensemble["weights"],
+                                     "kind": ensemble["kind"]}), "error": ""}
         rows.append(row)
     frame = pd.DataFrame(rows)
     frame = frame.sort_values(["inner_score", "trial"], na_position="last", kind="stable").reset_index(drop=True)

@@ -1,10 +1,12 @@
 """The search: a portfolio first, then successive halving of the networks on epochs (a network far behind the
 best pipeline is dropped at its lowest fidelity), then Optuna's TPE over the conditional space of the promising
-cheap families with the budget left, then the greedy ensemble.
+cheap families with the budget left, then the final choice.
 
 A TPE candidate's settings were chosen on the very folds that score it, so its score is optimistic (and more so
 the more trials TPE compares): it enters the final choice only when it beats the best a-priori candidate by more
-than one standard error of their per-fold differences (:func:`earns_its_place`).
+than one standard error of their per-fold differences (:func:`earns_its_place`; with one fold, never). The final
+choice is the flat average of the candidates the folds cannot tell from the best by that same rule
+(:meth:`Search._hedge`) when there are two or more, else the greedy ensemble when it wins, else the best pipeline.
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
@@ -131,8 +133,8 @@ class Search:
             raise InputError(f"every automl candidate failed: {'; '.join(reasons)[:300]}")
         eligible = self._eligible(ok)
         best = self._best(eligible)
-        return SearchResult(entries, best, self._ensemble(eligible, best), self.fits_used(), self.ev.folds,
-                            self.stopped_by)
+        ensemble = self._hedge(eligible, best) or self._ensemble(eligible, best)
+        return SearchResult(entries, best, ensemble, self.fits_used(), self.ev.folds, self.stopped_by)
 
     def _phase(self, name: str, make: Callable[[], list[tuple[space.Candidate, str]]]) -> None:
         """Enqueue the phase's candidates once (a resumed study keeps them) and run the waiting trials."""
@@ -279,6 +281,58 @@ class Search:
                      f") by more than one standard error across the folds")
         return keep
 
+    def _predictions(self, e: Entry) -> list[np.ndarray]:
+        """``e``'s inner-fold predictions; a resumed run recomputes those it does not hold (deterministic, not
+        budgeted)."""
+        if e.evaluation is None or not e.evaluation.predictions:
+            fam = self.families[e.candidate.family]
+            e.evaluation = self.ev.evaluate(space.at_rung(e.candidate, e.candidate.rung, fam, self.settings.top_rung),
+                                            measure_costs=False)
+        return e.evaluation.predictions
+
+    def _hedge(self, ok: list[Entry], best: Entry) -> dict | None:
+        """The equal-weight average of every candidate the inner folds cannot tell from the best: those the best
+        does not beat by more than one standard error of their per-fold differences (the one-standard-error rule's
+        set; :func:`earns_its_place` with the roles turned). Inside that set the folds rank by noise, and on a new
+        working condition the candidates extrapolate differently (filter banks, penalties, physics), so fitting
+        weights on the same folds would fit their noise; a flat average hedges across them (model averaging
+        under model uncertainty). Each a-priori candidate (fixed in advance as a distinct hypothesis) takes part,
+        but of TPE's candidates only each family's best: they are variations around one mode of the sampler (at
+        a larger budget dozens of near-copies) and would otherwise outvote the rest. Identical predictions (one
+        model under two names, a setting without effect) count once; at most ``ensemble_pool`` members, best
+        first. None with one inner fold (no noise to estimate) or when fewer than two members remain: then the
+        greedy ensemble decides (:meth:`_ensemble`)."""
+        if len(self.ev.folds) < 2:
+            return None
+        ref = best.evaluation.fold_rmse
+        members: list[tuple[Entry, list[np.ndarray]]] = []
+        tuned: set[str] = set()
+        for e in sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number)):
+            if not np.isfinite(e.score) or earns_its_place(ref, e.evaluation.fold_rmse) or (
+                    e.phase == "tpe" and e.candidate.family in tuned):
+                continue
+            if e.phase == "tpe":
+                tuned.add(e.candidate.family)
+            preds = self._predictions(e)
+            if any(all(np.allclose(p, q) for p, q in zip(preds, other)) for _, other in members):
+                continue
+            members.append((e, preds))
+            if len(members) == self.settings.ensemble_pool:
+                break
+        if len(members) < 2:
+            return None
+        w = 1.0 / len(members)
+        mix = [sum(w * preds[k] for _, preds in members) for k in range(len(self.ev.folds))]
+        fold_rmse, agg = self.ev.score_predictions(mix)
+        self.say(f"automl: the inner folds cannot tell {len(members)} candidates from the best (one standard error "
+                 f"of their per-fold differences); their average is chosen (inner score {agg:.3f} µm, best "
+                 f"single {best.score:.3f} µm)")
+        top = self.settings.top_rung
+        return {"members": [space.at_rung(e.candidate, e.candidate.rung, self.families[e.candidate.family], top)
+                            for e, _ in members],
+                "weights": [w] * len(members), "numbers": [e.number for e, _ in members], "score": agg,
+                "fold_rmse": fold_rmse, "kind": "one-SE set, equal weights"}
+
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
         """Greedy ensemble over a diverse pool: the best candidate of each family on each input set (raw, each
         filter bank; members that err differently are what an ensemble gains from), best first. Kept when it beats
@@ -296,13 +350,7 @@ class Search:
                 break
         if len(pool) < 2:
             return None
-        preds = []
-        for e in pool:  # a resumed run recomputes the predictions it does not hold (deterministic, not budgeted)
-            if e.evaluation is None or not e.evaluation.predictions:
-                fam = self.families[e.candidate.family]
-                e.evaluation = self.ev.evaluate(space.at_rung(e.candidate, e.candidate.rung, fam, top),
-                                                measure_costs=False)
-            preds.append(e.evaluation.predictions)
+        preds = [self._predictions(e) for e in pool]
         weights, score = caruana(preds, lambda p: self.ev.score_predictions(p)[1], self.settings.ensemble_steps)
         used = np.flatnonzero(weights > 0)
         if len(used) < 2 or not score < best.score:
@@ -318,16 +366,15 @@ class Search:
         return {"members": [space.at_rung(pool[i].candidate, pool[i].candidate.rung, fams[pool[i].candidate.family],
                                           top) for i in used],
                 "weights": [float(weights[i]) for i in used], "numbers": [pool[i].number for i in used],
-                "score": agg, "fold_rmse": fold_rmse}
+                "score": agg, "fold_rmse": fold_rmse, "kind": "greedy"}
 
 
 def earns_its_place(tuned: list[float], reference: list[float]) -> bool:
     """Whether a candidate tuned on the inner folds (``tuned``: its per-fold RMSEs, µm) beats one chosen before
     looking at them (``reference``) by more than one standard error of the per-fold differences (the one-SE rule of
-    Breiman et al., 1984, applied to the gain of tuning). With two folds this means better on both; with one, better
-    on it."""
+    Breiman et al., 1984, applied to the gain of tuning). With two folds this means better on both; with one fold
+    the noise cannot be estimated, so no gain is shown."""
     d = np.asarray(tuned, dtype=float) - np.asarray(reference, dtype=float)
-    if not len(d) or not np.isfinite(d).all():
+    if len(d) < 2 or not np.isfinite(d).all():
         return False
-    se = d.std(ddof=1) / np.sqrt(len(d)) if len(d) > 1 else 0.0
-    return bool(d.mean() + se < 0)
+    return bool(d.mean() + d.std(ddof=1) / np.sqrt(len(d)) < 0)
