@@ -144,3 +144,17 @@ def test_lumped_generator_draws_another_topology_per_seed():
         assert 10 <= m.size < 20 and np.allclose(m.K, m.K.T)
         tops.append(frozenset(m.info["extra_links"]))
     assert len(set(tops)) >= 3
+
+
+def test_preload_feedback_stays_bounded_where_its_gain_would_run_away():
+    m = _machine()
+    m.p = 1.0
+    prog = _constant_programme(12.0, 60.0, 10000.0)
+    eff = planted.Preload(np.random.default_rng(0))
+    eff.scale = 1e3  # κ·scale of 40–100 /K: the unbounded law overflows within the run
+    res = fd_model.simulate(copy.deepcopy(m), prog, np.full(len(prog.t), 20.0), 20.0, None, eff)
+    assert np.isfinite(res.T).all() and np.isfinite(res.drift["z"]).all()
+    T = res.T[-1]
+    q = eff.heat(m, T, len(prog.t) - 1, prog)
+    top = sum(float(np.sum(m.q_top[k])) for k in ("front_bearing", "rear_bearing"))
+    assert 0 < q.sum() <= top * (planted.Preload.MAX_FACTOR - 1) * (1 + 1e-12)

@@ -175,7 +175,10 @@ class BearingLaw(Effect):
 
 class Preload(Effect):
     """Thermal preload: the shaft warming past the housing at a bearing raises the preload and with it the
-    friction, heat × (1 + κ·max(ΔT − ΔT_start, 0))^(4/3), κ 0.04–0.1 /K × ``scale``."""
+    friction, heat × (1 + κ·max(ΔT − ΔT_start, 0))^(4/3), κ 0.04–0.1 /K × ``scale``, the factor at most
+    :data:`MAX_FACTOR` (beyond it the feedback runs away and the bearing seizes: no machine logs that)."""
+
+    MAX_FACTOR = 3.0
 
     def __init__(self, rng):
         self.kappa = rng.uniform(0.04, 0.1)
@@ -197,7 +200,7 @@ class Preload(Effect):
             i, j = m.info[s], m.info[h]
             dT = max((T[i] - T[j]) - (self.t0[i] - self.t0[j]), 0.0)
             top = m.q_top[key]
-            q += top * r * ((1 + self.kappa * self.scale * dT) ** (4 / 3) - 1)
+            q += top * r * (min((1 + self.kappa * self.scale * dT) ** (4 / 3), self.MAX_FACTOR) - 1)
         return q
 
 
