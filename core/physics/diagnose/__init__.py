@@ -256,14 +256,14 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
+        ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": rule.passes(f, j, d, decisive),
-            **j.as_dict()} for f, j, d in zip(fitted, judged, discovered)]
-        ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
+            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": o,
+            **j.as_dict()} for f, j, d, o in zip(fitted, judged, discovered, ok)]
         # a candidate judged on the drift channels comes first: the drift is what a compensation predicts
         lead = [i for i, o in enumerate(ok) if o and judged[i].group == "drift"] or [i for i, o in enumerate(ok) if o]
         passing = [fitted[i] for i in lead]
