@@ -321,24 +321,29 @@ class Search:
                 break
         if len(members) < 2:
             return None
-        w = 1.0 / len(members)
-        mix = [sum(w * preds[k] for _, preds in members) for k in range(len(self.ev.folds))]
-        fold_rmse, agg = self.ev.score_predictions(mix)
+        chosen = self._mixture([e for e, _ in members], [p for _, p in members], [1.0 / len(members)] * len(members),
+                               "one-SE set, equal weights")
         self.say(f"automl: the inner folds cannot tell {len(members)} candidates from the best (one standard error "
-                 f"of their per-fold differences); their average is chosen (inner score {agg:.3f} µm, best "
-                 f"single {best.score:.3f} µm)")
+                 f"of their per-fold differences); their average is chosen (inner score {chosen['score']:.3f} µm, "
+                 f"best single {best.score:.3f} µm)")
+        return chosen
+
+    def _mixture(self, entries: list[Entry], preds: list[list[np.ndarray]], weights: list[float], kind: str) -> dict:
+        """The final choice's description: ``entries`` at the refit's fidelity with ``weights``, scored on the
+        inner folds by their weighted predictions ``preds``."""
+        mix = [sum(w * p[k] for w, p in zip(weights, preds)) for k in range(len(self.ev.folds))]
+        fold_rmse, agg = self.ev.score_predictions(mix)
         top = self.settings.top_rung
         return {"members": [space.at_rung(e.candidate, e.candidate.rung, self.families[e.candidate.family], top)
-                            for e, _ in members],
-                "weights": [w] * len(members), "numbers": [e.number for e, _ in members], "score": agg,
-                "fold_rmse": fold_rmse, "kind": "one-SE set, equal weights"}
+                            for e in entries],
+                "weights": [float(w) for w in weights], "numbers": [e.number for e in entries], "score": agg,
+                "fold_rmse": fold_rmse, "kind": kind}
 
     def _ensemble(self, ok: list[Entry], best: Entry) -> dict | None:
         """Greedy ensemble over a diverse pool: the best candidate of each family on each input set (raw, each
         filter bank; members that err differently are what an ensemble gains from), best first. Kept when it beats
         the best pipeline on the inner folds and, with two folds or more, also out of fold
         (:func:`thermodrift.core.automl.ensemble.out_of_fold`)."""
-        top = self.settings.top_rung
         pool, seen = [], set()
         for e in sorted(ok, key=lambda e: (e.score, e.number)):
             key = (e.candidate.family, json.dumps(e.candidate.params.get("features"), sort_keys=True))
@@ -360,13 +365,7 @@ class Search:
             self.say(f"automl: the greedy ensemble (inner score {score:.3f} µm) is not kept: out of fold it scores "
                      f"{ens_oof:.3f} µm against {single_oof:.3f} µm for choosing one pipeline")
             return None
-        fams = {e.candidate.family: self.families[e.candidate.family] for e in pool}
-        mix = [sum(weights[i] * preds[i][k] for i in used) for k in range(len(self.ev.folds))]
-        fold_rmse, agg = self.ev.score_predictions(mix)
-        return {"members": [space.at_rung(pool[i].candidate, pool[i].candidate.rung, fams[pool[i].candidate.family],
-                                          top) for i in used],
-                "weights": [float(weights[i]) for i in used], "numbers": [pool[i].number for i in used],
-                "score": agg, "fold_rmse": fold_rmse, "kind": "greedy"}
+        return self._mixture([pool[i] for i in used], [preds[i] for i in used], [weights[i] for i in used], "greedy")
 
 
 def earns_its_place(tuned: list[float], reference: list[float]) -> bool:
