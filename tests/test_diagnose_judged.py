@@ -124,3 +124,94 @@ def test_a_decisive_held_out_gain_stands_in_for_the_test_never_for_the_blocks():
     assert not rule.passes(f_spiky, j_spiky, True, decisive_level=1e-3)   # the blocks missed
     assert not rule.passes(f_ok, j_ok, False)  # no decisive level: the three lines of evidence are needed
 
+
+
+# -- cross-fitted blocks (:mod:`.crossfit`): a drift channel, a shaped response u^k on a lagged speed level u ------
+
+class _ShapeNet:
+    """A stand-in network whose only parameter is the exponent k of its drift response u^k."""
+
+    def __init__(self, k: float):
+        self.k = k
+
+    def with_values(self, values):
+        return _ShapeNet(values["k"])
+
+
+def _speed(n: int = N) -> np.ndarray:
+    rng = np.random.default_rng(7)
+    level = np.repeat(rng.uniform(0.1, 1.0, n // 20), 20)
+    u = np.empty(n)
+    u[0] = level[0]
+    for i in range(1, n):  # a first-order lag of the speed level: the exponent shapes every transient
+        u[i] = u[i - 1] + 0.2 * (level[i] - u[i - 1])
+    return u
+
+
+def _shaped(monkeypatch, drift: np.ndarray, k_fit: float):
+    """The round's screen of a zero baseline against ``drift`` (noise units) and a candidate fitted at k_fit."""
+    import pandas as pd
+
+    from thermodrift.core.physics.calibration import FreeParameter
+    from thermodrift.core.physics.diagnose import crossfit, screening
+    from thermodrift.core.physics.diagnose.noise import NoiseModel
+
+    u = _speed()
+    monkeypatch.setattr(crossfit, "predict", lambda net, scenario: (pd.DataFrame({"z": u ** net.k}), None))
+    rows, blocks = np.arange(N), np.arange(N) * BLOCKS // N
+    base = screening.Baseline(None, np.zeros((N, 1)), np.zeros((N, 1)), [np.ones((N, 1))])
+    screen = screening.prepare(base, drift[:, None], np.ones(1), ["displacement"], ["z"], rows, blocks,
+                               noise=NoiseModel.white(1))
+    cand = screening.score(screen, screening.Candidate("bearing_heat_law", {}, {}, None, [], (u ** 1.0)[:, None]), 1)
+    fp = FreeParameter("k", ["k"], 1.0, 0.3, 5.0, "1", scale="linear")
+    f = SimpleNamespace(candidate=cand, declared=[(fp, 1.0)], parameters={"k": k_fit}, network=_ShapeNet(k_fit))
+    return crossfit, screen, f, u
+
+
+def test_a_true_shape_holds_in_every_block_predicted_by_a_fit_without_its_group(monkeypatch):
+    u = _speed()
+    drift = 20.0 * u ** 2.5 + np.random.default_rng(3).normal(0, 1, N)
+    crossfit, screen, f, _ = _shaped(monkeypatch, drift, 2.5)
+    gains, groups = crossfit.block_gains(f, screen, None, ["z"])
+    assert groups == 4 and gains.shape == (BLOCKS, 1)
+    total, wins, t = rule.blocked(gains[:, 0])
+    assert wins == 1.0 and t > 3.0
+    # refitted without any group it comes back to the truth's exponent
+    assert crossfit.refit_without(f, screen, None, ["z"], np.array([0, 1]))["k"] == pytest.approx(2.5, abs=0.1)
+
+
+def test_what_a_left_out_group_holds_does_not_move_the_shape_it_is_judged_with(monkeypatch):
+    u = _speed()
+    noise = np.random.default_rng(4).normal(0, 1, N)
+    left = np.arange(N) * BLOCKS // N < 2  # the first contiguous group of blocks
+    plain = 20.0 * u + noise
+    # only the left-out group follows u^4 (its mean kept: the baseline's offset, solved on every row as in the
+    # screening, stays where it was)
+    shift = np.where(left, 20.0 * (u ** 4 - u), 0.0)
+    odd = plain + np.where(left, shift - shift[left].mean(), 0.0)
+    crossfit, screen, f, _ = _shaped(monkeypatch, plain, 1.0)
+    k_plain = crossfit.refit_without(f, screen, None, ["z"], np.array([0, 1]))["k"]
+    crossfit, screen_odd, f_odd, _ = _shaped(monkeypatch, odd, 1.0)
+    k_odd = crossfit.refit_without(f_odd, screen_odd, None, ["z"], np.array([0, 1]))["k"]
+    assert k_odd == pytest.approx(k_plain, abs=1e-9)  # fitted on the other groups alone
+    # fitted with every block (the in-sample shape), the odd group pulls the exponent up
+    k_all = crossfit.refit_without(f_odd, screen_odd, None, ["z"], np.array([], dtype=int))["k"]
+    assert k_all > k_plain + 0.2
+
+
+def test_cross_fitted_blocks_decide_where_the_screening_blocks_passed():
+    """A candidate whose screening blocks are consistent but whose blocks, predicted by its shape fitted without
+    them, are not, fails the blocks test, and the reason names the cross-fitting."""
+    rng = np.random.default_rng(5)
+    measured, sigma, rows, blocks, val = _case(rng, 0.0)
+    thermal = np.column_stack([np.ones(N), np.linspace(0, 2, N)])
+    f = _fitted(thermal, READINGS, val_drop=(0.0, 400.0))
+    j = rule.judge(f, DISPLACEMENT, GROUP_IS_DRIFT, measured, sigma, rows, blocks, val)
+    assert j.consistent() and rule.passes(f, j, True)
+    assert rule.blocks_decide(f, j, True)
+    crossed = j.cross_fitted(np.array([2.0, -3.0, -1.0, 0.5, -2.0, -0.5, 1.0, -4.0]), 4)
+    assert not crossed.consistent() and not rule.passes(f, crossed, True)
+    assert crossed.screen_cv == (j.cv_gain, j.cv_wins, j.cv_t)
+    assert "without its group of 4" in rule.why_not(f, crossed, True, 0.005, 10)
+    # a candidate the likelihood ratio does not discover and whose held-out gain is not decisive: no refit
+    assert not rule.blocks_decide(f, j, False, decisive_level=0.0)

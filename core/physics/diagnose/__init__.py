@@ -21,11 +21,12 @@ Pipeline (:func:`diagnose`)::
                   false-discovery level stays below α in all), its fitted parameters lie within their physical
                   bounds, its condition-blocked gain is positive in at least half the blocks and on average
                   (cross-fitted: each block predicted by the candidate refitted, shape and amplitudes, without
-                  its contiguous group of blocks, :mod:`.crossfit`), and, fitted again without the inner validation block (the last ~20 % of the screening rows,
-                  cut at a condition boundary), it predicts that block better than the baseline refitted alike
-                  by more per sample than one standard error of the block-to-block spread of the error it
-                  leaves there (the scale of the structural misfit on this machine, in its own units), without
-                  making the other channels worse than their own spread. A held-out gain significant at the
+                  its contiguous group of blocks, :mod:`.crossfit`), and, fitted again without the inner
+                  validation block (the last ~20 % of the screening rows, cut at a condition boundary), it
+                  predicts that block better than the baseline refitted alike by more per sample than one
+                  standard error of the block-to-block spread of the error it leaves there (the scale of the
+                  structural misfit on this machine, in its own units), without making the other channels worse
+                  than their own spread. A held-out gain significant at the
                   round's level over the fitted candidates may stand in for the likelihood ratio, never for the
                   blocks (:mod:`.rule`). Of those passing, one judged on the drift comes first. Then screen
                   again on the augmented network (forward selection) until nothing passes

@@ -11,8 +11,10 @@ parameters are fitted again without it, warm-started at the full fit, by at most
 a bounded least-squares search on the screening's own metric (the response re-simulated, whitened and projected
 like the residual, its amplitudes solved on the kept blocks; the groups balanced as in the screening's ranking).
 Each block of the group is then scored as the screening scores it: the amplitudes solved without the block, on the
-response of the parameters fitted without its group. Nothing judged on a block was fitted on it. A candidate with
-no searched parameters (only linear ones) has nothing to refit: its cross-fitted gains are the screening's.
+response of the parameters fitted without its group. What the candidate fits is never fitted on the block it is
+judged on; the baseline's own linear parameters and its noise model, projected out of residual and response alike,
+stay solved on every screening row as in the screening. A candidate with no searched parameters (only linear ones)
+has nothing to refit: its cross-fitted gains are the screening's.
 
 Contiguous groups, not interleaved ones: neighbouring condition blocks share their thermal state (the temperature
 one block leaves is where the next starts), so a shape fitted on a block's neighbours would interpolate it; a left-out
@@ -44,57 +46,84 @@ def group_blocks(n_blocks: int, groups: int = GROUPS) -> list[np.ndarray]:
     return [g for g in np.array_split(np.arange(n_blocks), min(n_blocks, groups)) if len(g)]
 
 
+class _Refit:
+    """A fitted candidate's searched parameters on the search scale (:class:`~thermodrift.core.physics.calibration.
+    FreeParameter`), and its response on the round's screen at given values."""
+
+    def __init__(self, f, screen: screening.Screen, scenario, channels: list[str]):
+        self.f, self.screen, self.scenario, self.channels = f, screen, scenario, channels
+        searched = [(fp, f.parameters[fp.name]) for fp, _ in f.declared if fp.scale in ("log", "linear")]
+        self.fps = [fp for fp, _ in searched]
+        self.free = [fp.on_network_scale(v) for fp, v in searched]
+        self.lo = np.array([p.to_search(p.low) for p in self.free])
+        self.hi = np.array([p.to_search(p.high) for p in self.free])
+        self.theta0 = np.clip([p.to_search(p.value) for p in self.free], self.lo, self.hi)
+        self.nonneg = screening._nonneg_first(screen, f.candidate)
+        self.group_of = np.zeros(len(screen.resid), dtype=int)
+        for g, members in enumerate(screen.groups):
+            self.group_of[members] = g
+        self.root = np.sqrt(screen.weights[self.group_of])
+
+    def network(self, theta: np.ndarray) -> Network:
+        return self.f.network.with_values({path: x for p, v in zip(self.free, theta)
+                                           for path, x in p.path_values(p.from_search(float(v))).items()})
+
+    def scored(self, theta: np.ndarray) -> screening.Candidate | None:
+        """The candidate scored on the screen with its response at ``theta`` (None: it cannot be simulated)."""
+        try:
+            raw = predict(self.network(theta), self.scenario)[0][self.channels].to_numpy()
+        except InputError:
+            return None
+        response = raw - self.screen.base.raw
+        if not np.isfinite(response).all():
+            return None
+        cand = dataclasses.replace(self.f.candidate, response=response, parts=[], part_betas=[])
+        return screening.score(self.screen, cand, 1)
+
+    def without(self, group: np.ndarray, evaluations: int = EVALUATIONS) -> np.ndarray:
+        """The search coordinates fitted without the condition blocks ``group``: the whitened, projected residual
+        of the kept rows less the response, its amplitudes solved on the kept blocks."""
+        screen = self.screen
+        kept = ~np.isin(screen.blocks, group)
+        keep_blocks = ~np.isin(np.arange(int(screen.blocks.max()) + 1), group)
+
+        def resid(theta: np.ndarray) -> np.ndarray:
+            c = self.scored(theta)
+            if c is None:
+                return np.full(int(kept.sum()) * len(screen.resid), 1e6)
+            beta = screening._beta(c.block_stats[keep_blocks].sum(axis=0), self.nonneg)
+            return np.concatenate([(screen.resid[k] - beta[self.group_of[k]] * c.projected[k])[kept] * self.root[k]
+                                   for k in range(len(screen.resid))])
+
+        return least_squares(resid, self.theta0, bounds=(self.lo, self.hi), method="trf", max_nfev=evaluations,
+                             diff_step=1e-4, x_scale=1.0).x
+
+    def values(self, theta: np.ndarray) -> dict[str, float]:
+        """The parameters' values (their own units) at search coordinates ``theta``."""
+        return {fp.name: float(fp.from_network(p.from_search(float(v))))
+                for fp, p, v in zip(self.fps, self.free, theta)}
+
+
+def refit_without(f, screen: screening.Screen, scenario, channels: list[str], group: np.ndarray,
+                  evaluations: int = EVALUATIONS) -> dict[str, float]:
+    """The searched parameters of fitted candidate ``f`` (their own units) fitted without the condition blocks
+    ``group`` (ids), warm-started at the full fit."""
+    r = _Refit(f, screen, scenario, channels)
+    return r.values(r.without(group, evaluations)) if r.free else {}
+
+
 def block_gains(f, screen: screening.Screen, scenario, channels: list[str], groups: int = GROUPS,
                 evaluations: int = EVALUATIONS) -> tuple[np.ndarray, int]:
     """(blocks, amplitude groups): the held-out gain of each condition block of fitted candidate ``f``
     (:class:`.selection.Fitted`) on ``screen`` (the round's screen), its searched parameters fitted without the
     block's contiguous group and its amplitudes without the block; and the number of groups (0: nothing searched,
     the screening's gains)."""
-    cand = f.candidate
-    searched = [(fp, f.parameters[fp.name]) for fp, _ in f.declared if fp.scale in ("log", "linear")]
-    if not searched:
-        return cand.cv_blocks, 0
-    free = [fp.on_network_scale(v) for fp, v in searched]
-    lo = np.array([p.to_search(p.low) for p in free])
-    hi = np.array([p.to_search(p.high) for p in free])
-    theta0 = np.clip([p.to_search(p.value) for p in free], lo, hi)
-    nonneg = screening._nonneg_first(screen, cand)
-    nb = int(screen.blocks.max()) + 1
-    group_of = np.zeros(len(screen.resid), dtype=int)
-    for g, members in enumerate(screen.groups):
-        group_of[members] = g
-    root = np.sqrt(screen.weights[group_of])
-
-    def network(theta: np.ndarray) -> Network:
-        return f.network.with_values({path: x for p, v in zip(free, theta)
-                                      for path, x in p.path_values(p.from_search(float(v))).items()})
-
-    def scored(theta: np.ndarray) -> screening.Candidate | None:
-        try:
-            raw = predict(network(theta), scenario)[0][channels].to_numpy()
-        except InputError:
-            return None
-        response = raw - screen.base.raw
-        if not np.isfinite(response).all():
-            return None
-        return screening.score(screen, dataclasses.replace(cand, response=response, parts=[], part_betas=[]), 1)
-
-    out = np.array(cand.cv_blocks, dtype=float)
-    split = group_blocks(nb, groups)
+    r = _Refit(f, screen, scenario, channels)
+    if not r.free:
+        return f.candidate.cv_blocks, 0
+    out = np.array(f.candidate.cv_blocks, dtype=float)
+    split = group_blocks(int(screen.blocks.max()) + 1, groups)
     for group in split:
-        kept = ~np.isin(screen.blocks, group)
-        keep_blocks = ~np.isin(np.arange(nb), group)
-
-        def resid(theta: np.ndarray, kept=kept, keep_blocks=keep_blocks) -> np.ndarray:
-            c = scored(theta)
-            if c is None:
-                return np.full(int(kept.sum()) * len(screen.resid), 1e6)
-            beta = screening._beta(c.block_stats[keep_blocks].sum(axis=0), nonneg)
-            return np.concatenate([(screen.resid[k] - beta[group_of[k]] * c.projected[k])[kept] * root[k]
-                                   for k in range(len(screen.resid))])
-
-        theta = least_squares(resid, theta0, bounds=(lo, hi), method="trf", max_nfev=evaluations, diff_step=1e-4,
-                              x_scale=1.0).x
-        c = scored(theta)
+        c = r.scored(r.without(group, evaluations))
         out[group] = 0.0 if c is None else c.cv_blocks[group]  # a refit that cannot be simulated gains nothing
     return out, len(split)
