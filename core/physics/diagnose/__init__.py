@@ -19,14 +19,12 @@ Pipeline (:func:`diagnose`)::
                   changes. There its whitened likelihood ratio must be a discovery by Benjamini–Hochberg over
                   the round's screened candidates at the round's level (α/2, α/4, … over rounds: the
                   false-discovery level stays below α in all), its fitted parameters lie within their physical
-                  bounds, its condition-blocked gain is positive in at least half the blocks and on average
-                  (cross-fitted: each block predicted by the candidate refitted, shape and amplitudes, without
-                  its contiguous group of blocks, :mod:`.crossfit`), and, fitted again without the inner
-                  validation block (the last ~20 % of the screening rows, cut at a condition boundary), it
-                  predicts that block better than the baseline refitted alike by more per sample than one
-                  standard error of the block-to-block spread of the error it leaves there (the scale of the
-                  structural misfit on this machine, in its own units), without making the other channels worse
-                  than their own spread. A held-out gain significant at the
+                  bounds, its condition-blocked cross-validated gain is positive in at least half the blocks,
+                  and, fitted again without the inner validation block (the last ~20 % of the screening rows,
+                  cut at a condition boundary), it predicts that block better than the baseline refitted alike
+                  by more per sample than one standard error of the block-to-block spread of the error it
+                  leaves there (the scale of the structural misfit on this machine, in its own units), without
+                  making the other channels worse than their own spread. A held-out gain significant at the
                   round's level over the fitted candidates may stand in for the likelihood ratio, never for the
                   blocks (:mod:`.rule`). Of those passing, one judged on the drift comes first. Then screen
                   again on the augmented network (forward selection) until nothing passes
@@ -56,7 +54,7 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
-from thermodrift.core.physics.diagnose import adequacy, crossfit, rule, screening, selection
+from thermodrift.core.physics.diagnose import adequacy, rule, screening, selection
 from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
@@ -255,13 +253,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         pvals = [j.p_value for j in judged] + [c.p_value for c in cands if id(c) not in fitted_ids]
         discovered = benjamini_hochberg(pvals, level)[:len(fitted)]
         decisive = level / len(fitted)  # a held-out gain decisive at the round's level over the fitted (Bonferroni)
-        # the blocks of a candidate whose decision they settle, out of sample for its fitted shape too
-        settle = [i for i, (f, j, d) in enumerate(zip(fitted, judged, discovered))
-                  if rule.blocks_decide(f, j, d, decisive)]
-        for i in settle:
-            gains, groups = crossfit.block_gains(fitted[i], screen, scenario, channels)
-            if groups:
-                judged[i] = judged[i].cross_fitted(gains @ rule.judged_weights(judged[i], drift_groups), groups)
         test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
@@ -292,10 +283,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         jw, dw = judged[fitted.index(win)], discovered[fitted.index(win)]
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
-        test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels",
-                "blocks": f"{jw.cv_wins:.0%} of {jw.blocks} (t = {jw.cv_t:.2f}" + (
-                    f", each predicted by the mechanism refitted without its group of {jw.cross_groups} contiguous "
-                    "groups)" if jw.cross_groups else ")")}
+        test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
         if not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
             test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
                                     "the condition blocks, Bonferroni over the fitted candidates at the round's "
@@ -395,7 +383,7 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
     else:
         claim = lr + f"a discovery at false-discovery level {test['level']:g} among {m} candidates"
     evidence = (f"{label} explains {share:.0%} of the baseline's whitened misfit on the fitted data "
-                f"({test['test']}: {claim}; held-out condition blocks improved: {test['blocks']}; fitted without the "
+                f"({test['test']}: {claim}; held-out condition blocks improved: {c.cv_wins:.0%}; fitted without the "
                 f"inner validation block it predicts that block better than the baseline), as its signature says: "
                 f"{c.signature}")
     if win.fixed:

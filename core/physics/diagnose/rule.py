@@ -14,12 +14,9 @@ On the judged channels (:func:`judge`):
            χ²(free parameters) with nothing missing; the parameters were fitted on every channel, so on a subset
            the drop is at most what fitting that subset alone would give: the test stays valid (conservative).
            The p-values of a round go to Benjamini–Hochberg (:mod:`.noise`).
-* blocks   the condition-blocked gain improves at least half the blocks and its per-block mean is positive by
-           a one-sided t-test at :data:`CV_LEVEL` (consistent over the conditions, not carried by one block
-           where the baseline extrapolates badly). For a candidate whose decision the blocks settle
-           (:func:`blocks_decide`) the gains are cross-fitted (:mod:`.crossfit`): each block predicted by the
-           candidate refitted, shape and amplitudes, without its group of blocks; for the others the screening's
-           (amplitudes solved without each block at the linearised start shape) are reported, and decide nothing.
+* blocks   the condition-blocked cross-validated gain of the screening improves at least half the blocks and
+           its per-block mean is positive by a one-sided t-test at :data:`CV_LEVEL` (consistent over the
+           conditions, not carried by one block where the baseline extrapolates badly).
 * held out fitted without the inner validation block, it predicts that block better by more per sample than
            the error it leaves on those channels varies from block to block (its standard error over the
            condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
@@ -34,22 +31,16 @@ mode whose fit predicts the unseen block nine-tenths better fails it); the held-
 carry the evidence, both out of sample. A decisive held-out gain never stands in for the blocks: on a machine
 the baseline cannot represent, a candidate that soaks up structural misfit on the one held-out block reaches t
 of 8–16 while its blocks do not improve consistently.
-
-False-discovery control: the blocks (and the held-out gain and the guard) are further necessary conditions on a
-candidate the likelihood ratio made a discovery (Benjamini–Hochberg over the round's screened candidates) or
-whose held-out gain is decisive (Bonferroni over the fitted ones); an intersection with further conditions only
-removes findings, so the round's level bounds the false discoveries whatever the blocks statistic. That bound
-assumes the noise model; where structural misfit breaks it, the blocks are the guard, and they guard only when
-nothing judged on a block was fitted on it: hence the cross-fitted shape. Judged on the fitted shape with only
-the amplitudes left out, two lumped development nulls (505, 508) gained a false finding.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
+
+from thermodrift.core.physics.diagnose.screening import cv_of
 
 SPREAD_Z = 1.0     # held-out gain per sample over this many standard errors of the block-to-block spread
 GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-out block (share of their error) ...
@@ -77,15 +68,6 @@ class Judged:
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
-    cross_groups: int = 0  # groups of the cross-fitted blocks (:mod:`.crossfit`; 0: the screening's blocks)
-    screen_cv: tuple = ()  # the screening's (gain, share improved, t) when the blocks are cross-fitted
-
-    def cross_fitted(self, per_block: np.ndarray, groups: int) -> Judged:
-        """These statistics with the blocks' evidence from the cross-fitted per-block gains (:mod:`.crossfit`);
-        the screening's are kept in ``screen_cv``."""
-        gain, wins, t = blocked(per_block)
-        return replace(self, cv_gain=gain, cv_wins=wins, cv_t=t, cross_groups=groups,
-                       screen_cv=(self.cv_gain, self.cv_wins, self.cv_t))
 
     def held_out_t(self) -> float:
         """The held-out gain per sample over the standard error of the block spread."""
@@ -121,9 +103,7 @@ class Judged:
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
-                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p(), "cross_groups": self.cross_groups,
-                **({"screen_cv_gain": self.screen_cv[0], "screen_cv_wins": self.screen_cv[1],
-                    "screen_cv_t": self.screen_cv[2]} if self.screen_cv else {})}
+                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p()}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -137,33 +117,6 @@ def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, 
     means = np.bincount(blocks, sq, minlength=nb)[counts > 0] / counts[counts > 0]
     k = max(len(np.unique(blocks[np.isin(rows, val_rows)])), 1)
     return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
-
-
-def blocked(per_block: np.ndarray) -> tuple[float, float, float]:
-    """The blocks' evidence from per-block gains: their sum, the share of blocks improved and the t statistic of
-    their mean (mean over its standard error)."""
-    per_block = np.asarray(per_block, dtype=float)
-    if not len(per_block):
-        return 0.0, 0.0, 0.0
-    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
-    mean = float(np.mean(per_block))
-    t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
-    return float(per_block.sum()), float(np.mean(per_block > 0)), t
-
-
-def blocks_decide(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
-    """Whether the blocks settle this candidate's decision (:func:`passes`): every other requirement of one of
-    its two routes holds. Only these are cross-fitted (:mod:`.crossfit`); for any other candidate the blocks change
-    nothing."""
-    if not (j.statistic > 0 and not f.outside and j.guarded()):
-        return False
-    return (discovered and j.held_out()) or j.held_out_p() < decisive_level
-
-
-def judged_weights(j: Judged, group_is_drift: np.ndarray) -> np.ndarray:
-    """Weights of the screening's amplitude groups in the blocks of a candidate judged as ``j``: 1 on the drift
-    groups when it is judged on the drift, else on the temperature group."""
-    return (group_is_drift if j.group == "drift" else ~group_is_drift).astype(float)
 
 
 def judged_channels(response: np.ndarray, displacement: np.ndarray) -> np.ndarray:
@@ -184,8 +137,11 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     drift = bool((judged & displacement).any())
     guard = ~judged
     cv_w = (group_is_drift if drift else ~group_is_drift).astype(float)
+    cv_gain, cv_wins = cv_of(cv_w, f.candidate.cv_blocks)
     per_block = f.candidate.cv_blocks @ cv_w
-    cv_gain, cv_wins, cv_t = blocked(per_block)
+    sd = float(np.std(per_block, ddof=1)) if len(per_block) > 1 else 0.0
+    mean = float(np.mean(per_block)) if len(per_block) else 0.0
+    cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
     stat = float(f.drop[judged].sum())
 
     def spread(mask):
@@ -220,10 +176,8 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
     if f.outside:
         return "fits only with unphysical values: " + "; ".join(f.outside)
     if not j.consistent():
-        how = (f", each predicted by a fit without its group of {j.cross_groups} contiguous groups"
-               if j.cross_groups else "")
         return (f"held-out condition blocks do not improve consistently on the {where} channels (gain "
-                f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks{how})")
+                f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks)")
     per = j.val_gain / max(j.n_val, 1)
     if j.val_gain > 0 and not j.held_out():
         return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "
