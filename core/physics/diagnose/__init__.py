@@ -158,15 +158,19 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     inner_rows = fit_rows & (t < final_cut(fit_rec))
     inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
     structure: list[dict[str, Any]] = []
+    lag_table: list[dict[str, Any]] = []
     if network is None:
         # no prior on the auto baseline: the prior pulls its laws (heat ∝ n^p, constant convection) towards their
         # assumed form, which is what the finder tests; its own held-out checks guard against overfitting. On
         # FL_THERMAL the prior's weak pull (λ 0.001) hid a bearing heat law that cuts the unseen final block's
         # ch3 error from 53.7 to 16.8 µm. Its hidden-node count is chosen on the inner validation block first.
-        hidden, structure = adequacy.choose_hidden(recording, inner, val_rows, scenario, baseline_evaluations,
-                                                   screening.baseline_of)
+        hidden, structure, inner_cal = adequacy.choose_hidden(recording, inner, val_rows, scenario,
+                                                              baseline_evaluations, screening.baseline_of)
+        lags, lag_table = adequacy.choose_lags(inner_cal, recording, inner, val_rows, scenario, screening.baseline_of)
         cal = calibrate(fit_rec, None, hidden_nodes=hidden, intervals=False, max_evaluations=baseline_evaluations,
                         prior_strength=0.0)
+        if lags:
+            cal = dataclasses.replace(cal, network=adequacy.with_lags(cal.network, lags))
     else:
         cal = calibrate(fit_rec, network, free=[], intervals=False)
     channels = list(cal.sigma)
@@ -232,6 +236,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             adequate = adequacy.assess(channels, kinds, sigma, measured, base.readings, rows, val_rows,
                                        validation.base_readings, screen.noise)
             adequate["hidden_nodes"] = structure
+            adequate["expansion_lags"] = lag_table
         fitted = []
         for c in ranked:
             try:

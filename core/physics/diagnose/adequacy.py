@@ -1,11 +1,17 @@
-"""Adequacy first: the auto baseline's structure chosen on a held-out block, and how adequate the result is.
+"""Adequacy first: the auto baseline's structure chosen on held-out data, and how adequate the result is.
 
 Before mechanisms compete to explain the residual, the structural misfit the baseline itself can shed is shed:
 the ``auto`` network is calibrated on the screening rows before the inner validation block with each set of
 hidden nodes in :data:`HIDDEN_OPTIONS` (unmeasured heat paths that act on the displacements only, each adding
 a time constant to the expansion map) and the set that predicts the validation block best (noise-weighted,
 temperature and displacement channels balanced) is kept; a larger set must beat a smaller one by
-:data:`MIN_GAIN` of its held-out error. Links to the coolant or extra ambient paths are mechanisms the finder
+:data:`MIN_GAIN` of its held-out error. Then the expansion map (:func:`choose_lags`): the auto map reads every
+node instantaneously, but the part that expands is seldom where its sensor sits (a shaft behind a housing
+sensor, a casting behind a surface pad) and follows it through a conduction delay. Each drift channel may also
+read every temperature node through a first-order lag (:data:`LAG_OPTIONS`, shorter than the slow structural
+mode the finder tests), its sensitivities solved linearly beside the direct ones, so that lead and lag are both
+expressible; a lag is kept only when it cuts the drift error by :data:`MIN_GAIN` on the validation block and
+on the inner condition blocks, each left out in turn. Links to the coolant or extra ambient paths are mechanisms the finder
 tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to find. The
 search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
 and ``lptn_hybrid`` calibrate keeps its default.
@@ -17,16 +23,24 @@ the inner validation block against its fitted error.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import numpy as np
 
 from thermodrift.core.physics.calibration import calibrate
+from thermodrift.core.physics.diagnose.windows import condition_blocks
+from thermodrift.core.physics.network import Edge, Network, Node, TemperatureSensor
 
 # Hidden nodes by their start time constants (h): the auto network's default pair, one more with a fast path
 # (minutes: heat that reaches the structure quicker than any surface sensor shows it) and a finer spread.
 HIDDEN_OPTIONS = ((0.5, 4.0), (0.1, 0.7, 4.0), (0.1, 0.5, 1.5, 4.0))
 MIN_GAIN = 0.05
+# Lags (h) through which the drift channels may read the temperature nodes, tried one at a time after none: a
+# conduction delay between a sensor and the part that expands, below the slow structural mode's 0.5 h bound.
+LAG_OPTIONS = ((0.1,), (0.25,))
+LAG_PREFIX = "lag_"
+LAG_CAPACITY_J_K = 1.0  # a lag node draws ~1e-4 of its source node's heat flow: it reads, it does not cool
 STRUCTURAL_RATIO = 2.0  # fitted drift error over this many noise σ: misfit beyond noise (structural)
 
 
@@ -40,10 +54,11 @@ def _balanced_error(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarra
 
 
 def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario, evaluations: int,
-                  baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]]]:
+                  baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]], Any]:
     """The hidden nodes (start time constants, h) of the auto baseline that predicts ``val_rows`` best when
-    calibrated on ``inner_rows`` (indices into ``recording``), and the table of every set tried (held-out error
-    in noise units). ``baseline_of`` is the screening's linear refit (:func:`.screening.baseline_of`)."""
+    calibrated on ``inner_rows`` (indices into ``recording``), the table of every set tried (held-out error
+    in noise units) and that calibration. ``baseline_of`` is the screening's linear refit
+    (:func:`.screening.baseline_of`)."""
     inner_rec = recording.select(np.isin(np.arange(len(recording)), inner_rows))
     table, best = [], None
     for h in HIDDEN_OPTIONS:
@@ -59,9 +74,63 @@ def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scena
         table.append({"hidden_nodes": len(h), "time_constants_h": list(h), "heldout_error": round(err, 4),
                       "fitted_error": round(fit_err, 4)})
         if best is None or err < (1 - MIN_GAIN) * best[1]:
-            best = (h, err)
+            best = (h, err, cal)
     for row in table:
         row["chosen"] = tuple(row["time_constants_h"]) == best[0]
+    return best[0], table, best[2]
+
+
+def with_lags(network: Network, lags_h: tuple[float, ...]) -> Network:
+    """``network`` with, for every node read by a temperature sensor and every lag τ (h), an unmeasured node of
+    negligible capacity following it through a first-order lag τ and entering every output's expansion map
+    (sensitivity 0 µm/K, solved linearly by :func:`.screening.baseline_of`)."""
+    read = [n for s in network.sensors if isinstance(s, TemperatureSensor) for n in s.weights
+            if n in network.node_names]
+    added = []
+    for node in dict.fromkeys(read):
+        group = network.node(node).group
+        for tau in lags_h:
+            lag = f"{LAG_PREFIX}{node}_{round(tau * 60)}min"
+            added += [Node(lag, LAG_CAPACITY_J_K, group),
+                      Edge(f"{node}-{lag}", node, lag, LAG_CAPACITY_J_K / (tau * 3600.0), kind="conduction")]
+    lagged = [n.name for n in added if isinstance(n, Node)]
+    outputs = [dataclasses.replace(o, sensitivity_um_K={**o.sensitivity_um_K, **{n: 0.0 for n in lagged}})
+               for o in network.outputs]
+    return network.add(*added).replace(*outputs).validate()
+
+
+def is_lag_node(name: str) -> bool:
+    """A node added by :func:`with_lags` (no mechanism is placed on it)."""
+    return str(name).startswith(LAG_PREFIX)
+
+
+def choose_lags(cal, recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario,
+                baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]]]:
+    """The lags (h) of the expansion map (:func:`with_lags`; ``()`` for none) for the calibration ``cal`` made
+    on ``inner_rows``, and the table of every option tried: the drift channels' noise-weighted error on
+    ``val_rows`` (the map solved on ``inner_rows``) and on the inner condition blocks (each solved without it).
+    An option is kept when both errors fall by :data:`MIN_GAIN` against the best so far."""
+    network, channels = cal.network, list(cal.sigma)
+    disp = np.array([cal.channel_kind[c] == "displacement" for c in channels])
+    measured = recording.data[channels].to_numpy(dtype=float)
+    sigma = np.array([cal.sigma[c] for c in channels])
+    blocks = condition_blocks(recording, inner_rows)
+    table, best = [], None
+    for lags in ((),) + LAG_OPTIONS:
+        net = with_lags(network, lags) if lags else network
+
+        def drift_error(fit, score):
+            readings = baseline_of(net, scenario, channels, measured, fit, sigma).readings
+            return float(((((measured - readings) / sigma)[score][:, disp]) ** 2).mean())
+
+        val = drift_error(inner_rows, val_rows)
+        cv = float(np.mean([drift_error(inner_rows[blocks != b], inner_rows[blocks == b])
+                            for b in np.unique(blocks)]))
+        table.append({"lags_h": list(lags), "heldout_drift_error": round(val, 4), "blocks_drift_error": round(cv, 4)})
+        if best is None or (val < (1 - MIN_GAIN) * best[1] and cv < (1 - MIN_GAIN) * best[2]):
+            best = (lags, val, cv)
+    for row in table:
+        row["chosen"] = tuple(row["lags_h"]) == best[0]
     return best[0], table
 
 

@@ -27,6 +27,7 @@ from scipy.optimize import lsq_linear
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import predict
+from thermodrift.core.physics.diagnose.adequacy import is_lag_node
 from thermodrift.core.physics.diagnose.noise import NoiseModel
 from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.synthetic import PT100_TOLERANCE
@@ -178,6 +179,8 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
             continue
         found, errors = 0, []
         for options in cls.places(base.network):
+            if _names_lag_node(options):  # the expansion map's lagged reading of a node, no part to act on
+                continue
             for shape in SHAPES.get(mid, [{}]):
                 try:
                     mech = cls(**options)
@@ -198,6 +201,11 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
             why = errors[0] if errors else "no place in this network where it changes any reading"
             rejected.append({"mechanism": mid, "reason": f"skipped: {why}"})
     return out, rejected
+
+
+def _names_lag_node(options: dict[str, Any]) -> bool:
+    values = [v for x in options.values() for v in (x if isinstance(x, (list, tuple)) else [x])]
+    return any(isinstance(v, str) and is_lag_node(v) for v in values)
 
 
 def _basis(Z: np.ndarray, rows: np.ndarray) -> np.ndarray:
