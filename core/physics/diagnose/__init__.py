@@ -5,7 +5,8 @@ Pipeline (:func:`diagnose`)::
     final block   the last ~20 % of the recording (cut at a condition boundary) is kept out of everything
                   below and only scores the result (``heldout_rmse_um``)
     baseline      calibrate the network (``auto`` without its prior, its hidden nodes chosen first on the inner
-                  validation block, :mod:`.adequacy`; or a spec with its parameters fixed and only the linear
+                  validation block and the lags its expansion map reads the nodes through on that block and the
+                  inner condition blocks, :mod:`.adequacy`; or a spec with its parameters fixed and only the linear
                   offsets and sensitivities solved) on the rest; say how adequate it is (misfit against noise,
                   residual correlation, validation against fitted error)
     noise model   per channel an AR model of the baseline's own residual (:mod:`.noise`): residuals and

@@ -16,7 +16,8 @@ Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``
 evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
 whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
-its residual's correlation, its validation error against its fitted error, the hidden-node counts tried).
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and,
+``expansion_lags``, the expansion map's lags tried).
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
@@ -172,6 +173,13 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                           f"fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
                           + (" (chosen)" if h.get("chosen") else "")
                           for h in a["hidden_nodes"]) + "."]
+        if a.get("expansion_lags"):
+            lines += ["", "Expansion map: every temperature node also read through a first-order lag, kept when it "
+                      "cuts the drift error (noise-weighted mean square) on the inner validation block and on the "
+                      "inner condition blocks left out in turn: " + "; ".join(
+                          (f"lag {', '.join(f'{x:g}' for x in h['lags_h'])} h" if h["lags_h"] else "no lag")
+                          + f": held out {h['heldout_drift_error']:.4g}, blocks {h['blocks_drift_error']:.4g}"
+                          + (" (chosen)" if h.get("chosen") else "") for h in a["expansion_lags"]) + "."]
     lines += ["", "## Findings", ""]
     if not d.findings:
         lines.append("None.")
