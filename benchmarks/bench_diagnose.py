@@ -339,8 +339,8 @@ def main(argv: list[str] | None = None) -> int:
                          "generator; lumped: the independent lumped network (another topology per seed)")
     ap.add_argument("--sealed", action="store_true", help="with --generator fd: the sealed half (seeds ≥ 1000)")
     ap.add_argument("--sealed-base", type=int, default=independent.SEALED_FROM, metavar="SEED",
-                    help="with --sealed: the first seed of the sealed range (a multiple of 1000; 1000, 3000 and 5000 "
-                         "have each been run once: pick a fresh one)")
+                    help="with --sealed: the first seed of the sealed range (a multiple of 1000; 1000, 3000, 5000 and "
+                         "7000 have each been run once: pick a fresh one)")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--timing", action="store_true", help="with --generator fd|lumped: only the two 30 h recordings "
