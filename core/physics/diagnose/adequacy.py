@@ -11,8 +11,8 @@ sensor, a casting behind a surface pad) and follows it through a conduction dela
 read every temperature node through a first-order lag (:data:`LAG_OPTIONS`, shorter than the slow structural
 mode the finder tests), its sensitivities solved linearly beside the direct ones, so that lead and lag are both
 expressible; a lag is kept only when it cuts the drift error by :data:`MIN_GAIN` on the validation block and
-on the inner condition blocks, each left out in turn. Links to the coolant or extra ambient paths are mechanisms the finder
-tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to find. The
+on the inner condition blocks, each left out in turn. Links to the coolant or extra ambient paths are mechanisms
+the finder tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to find. The
 search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
 and ``lptn_hybrid`` calibrate keeps its default.
 
