@@ -12,8 +12,8 @@ read every temperature node through a first-order lag (:data:`LAG_OPTIONS`, shor
 mode the finder tests), its sensitivities solved linearly beside the direct ones, so that lead and lag are both
 expressible; a lag is kept only when it cuts the drift error by :data:`MIN_GAIN` on the validation block and
 on the inner condition blocks, each left out in turn. Links to the coolant or extra ambient paths are mechanisms
-the finder tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to find. The
-search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
+the finder tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to
+find. The search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
 and ``lptn_hybrid`` calibrate keeps its default.
 
 :func:`assess` then says how adequate the chosen baseline is: its fitted drift error against the drift sensors'
