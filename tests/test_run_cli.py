@@ -12,6 +12,7 @@ from pathlib import Path
 import mlflow
 import mlflow.pyfunc
 
+from thermodrift.core.resume import KILLED_ATTR
 from thermodrift.testing.data import tiny_recording
 
 
@@ -169,6 +170,14 @@ def _complete_trials(db: Path) -> list[tuple[int, float]]:
         return []
 
 
+def _budgeted_trials(db: Path) -> int:
+    """Finished trials that count against the budget: complete, pruned or failed, but not failed by a kill."""
+    with sqlite3.connect(db, timeout=1) as con:
+        return con.execute("SELECT COUNT(*) FROM trials t WHERE t.state IN ('COMPLETE', 'PRUNED', 'FAIL') AND NOT "
+                           "EXISTS (SELECT 1 FROM trial_user_attributes a WHERE a.trial_id = t.trial_id AND a.key = ?)",
+                           (KILLED_ATTR,)).fetchone()[0]
+
+
 def test_killed_study_resumes_and_keeps_completed_trials(workdir, cli):
     args = ["run", *TINY, "model=bp", "model.params.trainer.epochs=60", "n_trials=8", "optimizer=random"]
     proc = subprocess.Popen([*cli.exe, *args], cwd=workdir, env=cli.env(), stdout=subprocess.DEVNULL,
@@ -185,7 +194,7 @@ def test_killed_study_resumes_and_keeps_completed_trials(workdir, cli):
     assert out.returncode == 0, out.stderr[-2000:]
     after = _complete_trials(db)
     assert set(before) <= set(after), "completed trials were lost or changed"
-    assert len(after) == 8
+    assert _budgeted_trials(db) == 8  # the budget counts finished trials (a pruned one too), not the killed one
     (run,) = [r for r in runs(workdir) if r.info.status == "FINISHED"]
     assert run.data.metrics["study/n_trials"] >= 8
 
