@@ -6,8 +6,13 @@ splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h
 500/1500/2500/4500 rpm, held out after training on t < 40.13 h; the first 2500 rpm run, the 3750 rpm run and the
 5000 rpm run held out, each training on the other conditions of the first 40 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
-their last working condition held out, every displacement channel). The default run is two small reference
-machines with small budgets (under 10 minutes on 2 cores).
+their last working condition held out, every displacement channel), and eight machines that are not ours (group
+``indep``): recordings of the independent concealed-effect generators (``benchmarks/independent``, no code shared
+with the library; ``fd`` a finite-volume machining centre, ``lumped`` a lumped network of another topology per
+seed), development seeds only (< 1000), two null cases and two with a planted mechanism per generator, written as
+table + manifest and read back through the public file format (dataset ``recording_file``); every drift channel,
+the last working condition holding at least 5 % of the rows held out (the training part keeps every condition
+before it). The default run is two small reference machines with small budgets (under 10 minutes on 2 cores).
 
 Per task:
 
@@ -43,6 +48,8 @@ import time
 import warnings
 from pathlib import Path
 
+import sys
+
 import numpy as np
 
 from thermodrift.compensator.features import FeatureStage
@@ -51,6 +58,9 @@ from thermodrift.core.automl import job as automl_job, space
 from thermodrift.core.automl.search import Settings
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.study import INPUT_ROLES, Job, JobSpec
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import independent  # noqa: E402 - the independent generators next to this script (no code shared with the library)
 
 FL = {"dataset": "fl_thermal", "targets": ["ch3(um)"]}
 TASKS = {
@@ -66,15 +76,50 @@ TASKS = {
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
+# machines that are not ours: (generator, development seed, planted mechanism or None, constant drivers), the first
+# two mechanisms and the first two nulls of the development list (independent.case_list) per generator, the
+# lumped network on the next ones so that no programme repeats
+INDEPENDENT = [("fd", 0, "ambient_coupling", False), ("fd", 1, "coolant_coupling", False), ("fd", 500, None, False),
+               ("fd", 501, None, True), ("lumped", 2, "cutting_heat", False),
+               ("lumped", 3, "speed_dependent_convection", False), ("lumped", 502, None, False),
+               ("lumped", 503, None, True)]
+TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
+                                         "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
+              for g, s, h, c in INDEPENDENT})
+GROUPS = {"indep": [n for n, t in TASKS.items() if "generator" in t]}
 QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
          "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
 FULL = {"budgets": [30, 60, 240], "default": Settings().budget_fits, "families": None, "tpe": 10}
 
 
-def spec_of(task: dict, seed: int, data: str | None) -> JobSpec:
+def independent_task(task: dict, folder: Path) -> tuple[dict, dict]:
+    """An independent generator's recording written to ``folder`` as table + manifest (the public file format):
+    the dataset parameters that read it back, and the split parameters holding out its last working condition
+    with at least ``inner.MIN_SHARE`` of the rows (a programme's final minutes can be one short speed step, too
+    short to score on; the inner folds ignore such a condition for the same reason)."""
+    from thermodrift.core.automl import folds as inner
+    from thermodrift.core.recording import load_recording
+
+    gen = independent.make_case(task["case_seed"], task["hidden"], constant_drivers=task["constant_drivers"],
+                                generator=task["generator"])
+    table, manifest = gen.write(folder)
+    recording = load_recording(table, manifest)
+    labels = recording.conditions().to_numpy()
+    held = next(c for c in reversed(list(dict.fromkeys(labels)))
+                if np.count_nonzero(labels == c) >= inner.MIN_SHARE * len(labels))
+    (fold,) = splits.make_split("condition_holdout", test_conditions=[held]).folds(recording)
+    if len(inner.inner_folds(recording, fold.train)) < 2:  # the rule needs noise across folds to act on
+        raise ValueError(f"{gen.name}: the training part before {held} gives fewer than two inner folds")
+    return {"table": str(table), "manifest": str(manifest)}, {"test_conditions": [held]}
+
+
+def spec_of(task: dict, seed: int, data: str | None, cache: Path = Path(".bench_cache/automl")) -> JobSpec:
     params = {"path": data} if task["dataset"] == "fl_thermal" and data else {}
+    split_params = task.get("split_params", {})
+    if "generator" in task:
+        params, split_params = independent_task(task, cache / "recordings")
     return JobSpec(dataset=task["dataset"], dataset_params=params, model="mlr", split=task["split"],
-                   split_params=task["split_params"], targets=task["targets"], seed=seed, storage=None,
+                   split_params=split_params, targets=task["targets"], seed=seed, storage=None,
                    progress=False)
 
 
@@ -154,7 +199,7 @@ def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
 
 def run_task(name: str, conf: dict, args) -> dict:
     task = TASKS[name]
-    spec = spec_of(task, args.seed, args.data)
+    spec = spec_of(task, args.seed, args.data, args.cache)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     budgets = sorted(set(conf["budgets"]) | {conf["default"]})
     runs = []
@@ -178,7 +223,7 @@ def inner_table(name: str, args) -> str:
     from thermodrift.core.automl.evaluate import Evaluator
     from thermodrift.core.study import predict_rows
 
-    spec = spec_of(TASKS[name], args.seed, args.data)
+    spec = spec_of(TASKS[name], args.seed, args.data, args.cache)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
     targets = automl_job.targets_of(recording, spec.targets)
@@ -261,7 +306,8 @@ def figure(results: list[dict], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="every task, the default budget and three others")
-    parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}")
+    parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}, or the group indep (the eight "
+                        "independent-generator machines)")
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
@@ -274,6 +320,8 @@ def main() -> None:
                         help="instead: each portfolio candidate's inner-fold and held-out RMSE per task (predictions "
                              "kept in --cache as <task>-inner-s<seed>.pkl)")
     args = parser.parse_args()
+    if args.tasks:
+        args.tasks = [n for t in args.tasks for n in GROUPS.get(t, [t])]
     if args.inner_table:
         for name in args.tasks or QUICK["tasks"]:
             print(inner_table(name, args))

@@ -1,0 +1,46 @@
+"""The AutoML benchmark's tasks on the independent generators' machines (benchmarks/bench_automl.py): the recording
+goes through the public file format, and the held-out working condition is long enough to score on."""
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+from thermodrift.core import registry, splits
+from thermodrift.core.automl import folds as inner
+
+BENCH = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_automl.py"
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("bench_automl", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_independent_task_holds_out_the_last_condition_long_enough_to_score(tmp_path):
+    bench = _bench()
+    # fd seed 1 ends with a short speed step (under 5 % of the rows): the condition before it is held out
+    spec = bench.spec_of(bench.TASKS["fd_coolant_coupling_1"], 0, None, tmp_path)
+    assert spec.dataset == "recording_file" and Path(spec.dataset_params["table"]).is_file()
+    rec = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    labels = rec.conditions().to_numpy()
+    order = list(dict.fromkeys(labels))
+    (held,) = spec.split_params["test_conditions"]
+    assert np.count_nonzero(labels == order[-1]) < inner.MIN_SHARE * len(labels)
+    assert held == order[-2]
+    (fold,) = splits.make_split(spec.split, **spec.split_params).folds(rec)
+    assert set(labels[fold.test]) == {held} and fold.train.max() < fold.test.min()
+    assert len(inner.inner_folds(rec, fold.train)) >= 2
+    # a recording whose last condition is long enough keeps the default: the last condition held out
+    spec = bench.spec_of(bench.TASKS["fd_null_500"], 0, None, tmp_path)
+    labels = registry.create("dataset", spec.dataset, **spec.dataset_params).conditions().to_numpy()
+    assert spec.split_params["test_conditions"] == [list(dict.fromkeys(labels))[-1]]
+
+
+def test_indep_group_names_every_independent_task():
+    bench = _bench()
+    assert bench.GROUPS["indep"] and all("generator" in bench.TASKS[n] for n in bench.GROUPS["indep"])
+    assert {bench.TASKS[n]["generator"] for n in bench.GROUPS["indep"]} == {"fd", "lumped"}
+    assert all(bench.TASKS[n]["case_seed"] < 1000 for n in bench.GROUPS["indep"])  # development seeds only
