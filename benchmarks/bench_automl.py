@@ -33,6 +33,8 @@ Run::
 
     python benchmarks/bench_automl.py [--full] [--data ../shared/data/fl_thermal/data.xlsx] [--tasks NAME ...]
         [--budgets FITS ...] [--hindsight-trials N]
+    python benchmarks/bench_automl.py --inner-table [--inner-tpe] --tasks NAME ...   # every candidate, held out too
+    python benchmarks/bench_automl.py --rules --tasks NAME ...   # final-choice rules replayed on those predictions
 
 ``--budgets`` replaces the set's budgets (the default budget is always run), ``--hindsight-trials`` its TPE
 trials per family for the hindsight best and ``--hindsight-families`` the families tried for it, so a piece of
@@ -235,14 +237,22 @@ def inner_table(name: str, args) -> str:
     lines = [f"{name}: inner folds " + "; ".join(f.name.removeprefix("inner: ") for f in folds),
              "| candidate | " + " | ".join(f"fold {k + 1}" for k in range(len(folds))) + " | inner score | held out |",
              "|---|" + "---:|" * (len(folds) + 2)]
-    for cand in space.portfolio(fams, space.selectors()):
+    cands = [(cand, "portfolio") for cand in space.portfolio(fams, space.selectors())]
+    board = args.cache / f"{name}-leaderboard-b{Settings().budget_fits}-s{args.seed}.csv"
+    if args.inner_tpe and board.exists():  # the TPE candidates the default-budget search scored (cheap families)
+        import pandas as pd
+        rows = pd.read_csv(board)
+        cands += [(space.Candidate(json.loads(r.params)), "tpe") for r in rows.itertuples()
+                  if r.phase == "tpe" and r.status == "ok"]
+    for cand, phase in cands:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             e = ev.evaluate(cand.params, measure_costs=False)
             model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
             pred = predict_rows(model, ev.X, fold.test)
         out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
-        saved["candidates"].append({"label": space.describe(cand.params), "params": cand.params,
+        saved["candidates"].append({"label": space.describe(cand.params), "params": cand.params, "phase": phase,
+                                    "fold_rmse": e.fold_rmse, "score": e.score,
                                     "fold_pred": e.predictions, "pred": np.asarray(pred)})
         lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
                      + f" | {e.score:.2f} | {out:.2f} |")
@@ -250,6 +260,104 @@ def inner_table(name: str, args) -> str:
     args.cache.mkdir(parents=True, exist_ok=True)
     with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "wb") as fh:  # to compare selection rules offline
         pickle.dump(saved, fh)
+    return "\n".join(lines)
+
+
+def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
+    """Held-out RMSE (µm) of the final-choice rules on one task's ``--inner-table --inner-tpe`` predictions (networks
+    aside), with :mod:`thermodrift.core.automl.search`'s candidate rules: TPE candidates eligible when they earn their
+    place against the best a-priori one; ``one-SE flat``: the search's rule (the equal-weight average of the one-SE
+    set, of TPE's candidates each family's best, identical predictions once, at most ``pool``; with fewer than two
+    members the greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible
+    candidate with the best inner score; ``one vote per family and input set``: the one-SE set keeping the best
+    member per (family, features)."""
+    from thermodrift.core.automl.ensemble import caruana, out_of_fold
+    from thermodrift.core.automl.folds import aggregate
+    from thermodrift.core.automl.search import earns_its_place
+
+    truth, fold_truth = saved["truth"], saved["fold_truth"]
+
+    def rmse(pred, y):  # RMSE (µm) per target, mean over targets
+        return float(np.mean(np.sqrt(np.mean((np.asarray(pred) - y) ** 2, axis=0))))
+
+    def inner_score(preds):
+        return aggregate([rmse(p, y) for p, y in zip(preds, fold_truth)])
+
+    cands = [dict(c, number=i) for i, c in enumerate(saved["candidates"]) if np.isfinite(c["score"])]
+    prior = [c for c in cands if c["phase"] != "tpe"]
+    ref = min(prior, key=lambda c: (c["score"], c["number"]))
+    ok = sorted((c for c in cands if c["phase"] != "tpe" or earns_its_place(c["fold_rmse"], ref["fold_rmse"])),
+                key=lambda c: (c["score"], c["number"]))
+    best = ok[0]
+
+    def one_se(key):
+        members, tuned, seen = [], set(), set()
+        for c in ok:
+            fam = c["params"]["model"]
+            if earns_its_place(best["fold_rmse"], c["fold_rmse"]) or (c["phase"] == "tpe" and fam in tuned):
+                continue
+            if c["phase"] == "tpe":
+                tuned.add(fam)
+            k = key(c)
+            if k in seen or any(all(np.allclose(p, q) for p, q in zip(c["fold_pred"], m["fold_pred"]))
+                                for m in members):
+                continue
+            seen.add(k)
+            members.append(c)
+            if len(members) == pool:
+                break
+        return members
+
+    def greedy():
+        chosen, seen = [], set()
+        for c in ok:
+            k = (c["params"]["model"], json.dumps(c["params"].get("features"), sort_keys=True))
+            if k not in seen:
+                seen.add(k)
+                chosen.append(c)
+            if len(chosen) == pool:
+                break
+        preds = [c["fold_pred"] for c in chosen]
+        if len(preds) < 2:
+            return None
+        weights, score = caruana(preds, inner_score)
+        if np.count_nonzero(weights) < 2 or not score < best["score"]:
+            return None
+        ens, single = out_of_fold(preds, lambda p, k: rmse(p, fold_truth[k]), aggregate)
+        if np.isfinite(ens) and not ens < single:
+            return None
+        return [(w, c) for w, c in zip(weights, chosen) if w > 0]
+
+    def held(members):
+        return rmse(sum(w * c["pred"] for w, c in members), truth), len(members)
+
+    flat = one_se(lambda c: c["number"])
+    if len(flat) >= 2:
+        current = held([(1 / len(flat), c) for c in flat])
+    else:
+        current = held(greedy() or [(1.0, best)])
+    vote = one_se(lambda c: (c["params"]["model"], json.dumps(c["params"].get("features"), sort_keys=True)))
+    return {"one-SE flat": current, "best single": held([(1.0, best)]),
+            "one vote per family and input set": held([(1 / len(vote), c) for c in vote]) if len(vote) >= 2
+            else current,
+            "hindsight best candidate": min(((rmse(c["pred"], truth), 1) for c in cands), key=lambda x: x[0])}
+
+
+def rules_table(names: list[str], args) -> str:
+    """:func:`final_rules` per task, and the geometric mean of each rule's held-out RMSE over the one-SE flat
+    rule's."""
+    rows, ratios = [], {}
+    for name in names:
+        with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "rb") as fh:
+            r = final_rules(pickle.load(fh))
+        rows.append((name, r))
+        for rule, (v, _) in r.items():
+            ratios.setdefault(rule, []).append(v / r["one-SE flat"][0])
+    rules = list(rows[0][1])
+    lines = ["| task | " + " | ".join(f"{r} (µm, members)" for r in rules) + " |", "|---|" + "---:|" * len(rules)]
+    lines += [f"| {n} | " + " | ".join(f"{v:.3f} ({k})" for v, k in r.values()) + " |" for n, r in rows]
+    lines.append("| geometric mean / one-SE flat | " + " | ".join(
+        f"{np.exp(np.mean(np.log(ratios[r]))):.3f}" for r in rules) + " |")
     return "\n".join(lines)
 
 
@@ -319,12 +427,21 @@ def main() -> None:
     parser.add_argument("--inner-table", action="store_true",
                         help="instead: each portfolio candidate's inner-fold and held-out RMSE per task (predictions "
                              "kept in --cache as <task>-inner-s<seed>.pkl)")
+    parser.add_argument("--inner-tpe", action="store_true",
+                        help="with --inner-table: also the TPE candidates of the task's default-budget leaderboard in "
+                             "--cache (what the search's final choice drew from)")
+    parser.add_argument("--rules", action="store_true",
+                        help="instead: the held-out RMSE of final-choice rules from the --inner-table --inner-tpe "
+                             "predictions in --cache")
     args = parser.parse_args()
     if args.tasks:
         args.tasks = [n for t in args.tasks for n in GROUPS.get(t, [t])]
     if args.inner_table:
         for name in args.tasks or QUICK["tasks"]:
             print(inner_table(name, args))
+        return
+    if args.rules:
+        print(rules_table(args.tasks or QUICK["tasks"], args))
         return
     conf = dict(FULL if args.full else QUICK)
     if args.budgets is not None:

@@ -44,3 +44,24 @@ def test_indep_group_names_every_independent_task():
     assert bench.GROUPS["indep"] and all("generator" in bench.TASKS[n] for n in bench.GROUPS["indep"])
     assert {bench.TASKS[n]["generator"] for n in bench.GROUPS["indep"]} == {"fd", "lumped"}
     assert all(bench.TASKS[n]["case_seed"] < 1000 for n in bench.GROUPS["indep"])  # development seeds only
+
+
+def _cand(phase, fold_rmse, fold_pred, pred, model="mlr", features=None):
+    from thermodrift.core.automl.folds import aggregate
+    return {"label": model, "params": {"model": model, "features": features}, "phase": phase, "fold_rmse": fold_rmse,
+            "score": aggregate(fold_rmse), "fold_pred": [np.full((2, 1), v) for v in fold_pred],
+            "pred": np.full((2, 1), pred)}
+
+
+def test_final_rules_replay_the_search_rules():
+    bench = _bench()
+    # fold truth 0 on three folds; a candidate predicting the constant v has fold RMSE |v|
+    a = _cand("portfolio", [1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 2.0)                      # best a-priori
+    b = _cand("portfolio", [1.1, 0.9, 1.05], [1.1, -0.9, 1.05], -1.0, model="lptn")     # not separable from a
+    c = _cand("portfolio", [3.0, 3.0, 3.0], [3.0, 3.0, 3.0], 0.0)                      # clearly worse
+    d = _cand("tpe", [0.95, 1.2, 0.9], [0.95, 1.2, 0.9], 0.0)                          # does not earn its place
+    saved = {"fold_truth": [np.zeros((2, 1))] * 3, "truth": np.zeros((2, 1)), "candidates": [a, b, c, d]}
+    r = bench.final_rules(saved)
+    assert r["best single"] == (2.0, 1)
+    assert r["one-SE flat"] == (0.5, 2)  # (2.0 - 1.0) / 2: a and b averaged; c beaten, d not eligible
+    assert r["hindsight best candidate"] == (0.0, 1)
