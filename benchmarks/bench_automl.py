@@ -6,13 +6,14 @@ splits (the project's 5000 rpm split, train t < 24.13 h and test 24.13–32.13 h
 500/1500/2500/4500 rpm, held out after training on t < 40.13 h; the first 2500 rpm run, the 3750 rpm run and the
 5000 rpm run held out, each training on the other conditions of the first 40 h), and the four reference
 machines (dataset ``reference_machines``: demo_spindle, turning_centre_s1, vmc_spindle_s2, motorized_spindle_s3;
-their last working condition held out, every displacement channel), and eight machines that are not ours (group
-``indep``): recordings of the independent concealed-effect generators (``benchmarks/independent``, no code shared
-with the library; ``fd`` a finite-volume machining centre, ``lumped`` a lumped network of another topology per
-seed), development seeds only (< 1000), two null cases and two with a planted mechanism per generator, written as
-table + manifest and read back through the public file format (dataset ``recording_file``); every drift channel,
-the last working condition holding at least 5 % of the rows held out (the training part keeps every condition
-before it). The default run is two small reference machines with small budgets (under 10 minutes on 2 cores).
+their last working condition held out, every displacement channel), and sixteen machines that are not ours
+(group ``indep``; its halves ``indep_first`` and ``indep_second``): recordings of the independent concealed-effect
+generators (``benchmarks/independent``, no code shared with the library; ``fd`` a finite-volume machining centre,
+``lumped`` a lumped network of another topology per seed), development seeds only (< 1000), four null cases and
+four with a planted mechanism per generator, written as table + manifest and read back through the public file
+format (dataset ``recording_file``); every drift channel, the last working condition holding at least 5 % of the
+rows held out (the training part keeps every condition before it). The default run is two small reference
+machines with small budgets (under 10 minutes on 2 cores).
 
 Per task:
 
@@ -78,17 +79,21 @@ TASKS = {
     **{m: {"dataset": m, "targets": None, "split": "condition_holdout", "split_params": {}}
        for m in ("demo_spindle", "turning_centre_s1", "vmc_spindle_s2", "motorized_spindle_s3")},
 }
-# machines that are not ours: (generator, development seed, planted mechanism or None, constant drivers), the first
-# two mechanisms and the first two nulls of the development list (independent.case_list) per generator, the
-# lumped network on the next ones so that no programme repeats
+# machines that are not ours: (generator, development seed, planted mechanism or None, constant drivers), the
+# development list (independent.case_list) in its order, two mechanisms and two nulls at a time, to each generator
+# in turn, so that no programme repeats
 INDEPENDENT = [("fd", 0, "ambient_coupling", False), ("fd", 1, "coolant_coupling", False), ("fd", 500, None, False),
                ("fd", 501, None, True), ("lumped", 2, "cutting_heat", False),
                ("lumped", 3, "speed_dependent_convection", False), ("lumped", 502, None, False),
-               ("lumped", 503, None, True)]
+               ("lumped", 503, None, True),
+               ("fd", 4, "bearing_heat_law", False), ("fd", 5, "preload_feedback", False), ("fd", 504, None, False),
+               ("fd", 505, None, True), ("lumped", 6, "sensor_lag", False), ("lumped", 7, "centrifugal_growth", False),
+               ("lumped", 506, None, False), ("lumped", 507, None, True)]
 TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
                                          "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
               for g, s, h, c in INDEPENDENT})
 GROUPS = {"indep": [n for n, t in TASKS.items() if "generator" in t]}
+GROUPS["indep_first"], GROUPS["indep_second"] = GROUPS["indep"][:8], GROUPS["indep"][8:]
 QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
          "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
 FULL = {"budgets": [30, 60, 240], "default": Settings().budget_fits, "families": None, "tpe": 10}
@@ -414,8 +419,8 @@ def figure(results: list[dict], path: Path) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="every task, the default budget and three others")
-    parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}, or the group indep (the eight "
-                        "independent-generator machines)")
+    parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}, or the group indep (the "
+                        "independent-generator machines; indep_first, indep_second: its halves)")
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
