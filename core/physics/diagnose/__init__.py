@@ -55,7 +55,7 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
-from thermodrift.core.physics.diagnose import adequacy, rival, rule, screening, selection
+from thermodrift.core.physics.diagnose import adequacy, rule, screening, selection
 from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
 from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
@@ -192,7 +192,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     trace: list[dict[str, Any]] = []
     screened = 0
     adequate: dict[str, Any] = {}
-    rivals_: list[dict[str, Any]] = []  # the structural rival of every round it was fitted in (:mod:`.rival`)
     for round_ in range(max_rounds):
         cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only)
         if round_ == 0:
@@ -264,31 +263,19 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
         ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
-        # on an auto baseline a candidate judged on the drift channels must explain more than one more hidden node
-        # of the baseline's own kind would (:mod:`.rival`): structural misfit is no mechanism
-        structural_rival = {}
-        if network is None and any(o and j.group == "drift" for o, j in zip(ok, judged)):
-            structural_rival = _rival(screen, base, scenario, measured, sigma, weights, rows, blocks, validation,
-                                      displacement, drift_groups, val_rows, round_, fitted, judged, ok, trace, level)
-            rivals_.append(structural_rival)
-        soaked = set(structural_rival.get("explains_as_much_as", []))
-        ok = [o and f.candidate.label not in soaked for f, o in zip(fitted, ok)]
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
             "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": o,
-            "soaked_by_structural_rival": f.candidate.label in soaked,
             **j.as_dict()} for f, j, d, o in zip(fitted, judged, discovered, ok)]
         # a candidate judged on the drift channels comes first: the drift is what a compensation predicts
         lead = [i for i, o in enumerate(ok) if o and judged[i].group == "drift"] or [i for i, o in enumerate(ok) if o]
         passing = [fitted[i] for i in lead]
         if not passing:
             for f, j, d in zip(fitted, judged, discovered):
-                rejected.append({"mechanism": f.candidate.mechanism, "reason": (
-                    rival.reason(f.candidate.mechanism, structural_rival) if f.candidate.label in soaked
-                    else rule.why_not(f, j, d, level, m))})
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": rule.why_not(f, j, d, level, m)})
             break
         by_judged = []
         for i in lead:
@@ -297,7 +284,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                                  block_bal=blocks_judged))
         win = passing[by_judged.index(selection.parsimonious(by_judged, level))]
         rivals = [f for f in fitted if f is not win and f.candidate.mechanism != win.candidate.mechanism
-                  and f.candidate.label not in soaked and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
+                  and f.dsse_bal >= (1 - EQUIVALENT) * win.dsse_bal]
         inclusion = selection.bootstrap_inclusion(fitted, int(blocks.max()) + 1, m, level, bootstrap, seed + round_)
         jw, dw = judged[fitted.index(win)], discovered[fitted.index(win)]
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
@@ -319,15 +306,12 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         for f, d in zip(fitted, discovered):
             if f is not win and f not in rivals and f.candidate is not win.candidate:
                 j = judged[fitted.index(f)]
-                reason = (rival.reason(f.candidate.mechanism, structural_rival) if f.candidate.label in soaked else
-                          rule.why_not(f, j, d, level, m) if f not in passing else
+                reason = (rule.why_not(f, j, d, level, m) if f not in passing else
                           f"explains less than {win.candidate.mechanism} "
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
         accepted.add(win.candidate.mechanism)
         base = screening.baseline_of(win.network, scenario, channels, measured, rows, sigma)
-    if network is None:
-        adequate["structural_rival"] = rivals_
     listed = {f["mechanism"] for f in findings} | {r["mechanism"] for r in rejected}
     for mid in registry.names("mechanism"):
         if (only is None or mid in only) and mid not in listed:
@@ -337,24 +321,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                      _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(recording),
                      cal.network, base.network, screened, time.perf_counter() - clock,
                      scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
-
-
-def _rival(screen, base, scenario, measured, sigma, weights, rows, blocks, validation, displacement, drift_groups,
-           val_rows, round_, fitted, judged, ok, trace, level) -> dict[str, Any]:
-    """Fit the round's structural rival (:mod:`.rival`), add it to ``trace`` and return its description with the
-    labels of the passing drift-judged candidates it explains as much as."""
-    f, shape = rival.fit(screen, base, scenario, measured, sigma, weights, rows, displacement, validation)
-    j = rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
-    described = rival.describe(shape, j)
-    soaked = [c.candidate.label for c, jc, o in zip(fitted, judged, ok) if o and rival.explains_as_much(jc, j)]
-    trace.append({"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
-        screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
-        "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
-        "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0, "discovered": False,
-        "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-        "remaining_block_spread": j.spread, "outside": False, "passed": False, "rival": True,
-        "rival_tau_min": described["tau_min"], "rival_exponent": described["exponent"], **j.as_dict()})
-    return {"round": round_ + 1, **described, "explains_as_much_as": soaked}
 
 
 def _judged_blocks(f, j) -> np.ndarray:

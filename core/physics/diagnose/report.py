@@ -16,10 +16,8 @@ Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``
 evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
 whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
-its residual's correlation, its validation error against its fitted error, the hidden-node counts tried,
-``expansion_lags``, the expansion map's lags tried, and ``structural_rival``, on an ``auto`` baseline, per round
-in which a drift candidate passed: the generic structural rival fitted beside the candidates
-(:mod:`thermodrift.core.physics.diagnose.rival`), its statistics and the candidates it explained as much as).
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and,
+``expansion_lags``, the expansion map's lags tried).
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
@@ -74,28 +72,10 @@ def _what(mechanism: str) -> str:
 def _structural(d) -> str:
     """A sentence on how far the baseline's drift misfit exceeds noise, empty when it does not."""
     a = getattr(d, "adequacy", {}) or {}
-    if not a.get("structural") and not _soaked(d):
+    if not a.get("structural"):
         return ""
     return "; ".join(f"{c}: {v['rmse_um']:.3g} µm fitted, {v['misfit_over_noise']:.3g} times the probe noise, "
                      f"residual AR coefficient sum {v['residual_ar_sum']:.3g}" for c, v in a["channels"].items())
-
-
-def _soaked(d) -> list[dict[str, Any]]:
-    """The rounds whose structural rival (:mod:`.rival`) explained as much as a passing mechanism."""
-    a = getattr(d, "adequacy", {}) or {}
-    return [r for r in a.get("structural_rival", []) if r.get("explains_as_much_as")]
-
-
-def _rival_text(d) -> str:
-    """A sentence naming the mechanisms a generic structural rival explained as much as, empty when none."""
-    took = _soaked(d)
-    if not took:
-        return ""
-    names = sorted({lab.split(" at ")[0].replace("_", " ") for r in took for lab in r["explains_as_much_as"]})
-    r = took[0]
-    return (f" {', '.join(names).capitalize()} passed the tests but {'is' if len(names) == 1 else 'are'} not "
-            f"identifiable from structural misfit: a generic {r['rival']} (τ {r['tau_min']:.3g} min) explains the "
-            "drift's residual as well.")
 
 
 def verdict(d) -> str:
@@ -117,7 +97,7 @@ def verdict(d) -> str:
                     f"misfit is structural ({structural}). It is not that nothing is missing: the baseline network "
                     "itself cannot represent this machine, and no candidate predicts held-out data better; a "
                     "different network (more nodes or paths between them) is what the data asks for. ")
-        return (head.rstrip() + _rival_text(d) + " The calibrated model's drift error on the final, unseen block: "
+        return (head + "The calibrated model's drift error on the final, unseen block: "
                 + "; ".join(f"{c} {before[c]:.2f} µm" for c in before) + "." + outside)
     parts = []
     for f in d.findings:
@@ -142,7 +122,6 @@ def verdict(d) -> str:
     if structural:
         text += (" Besides the findings, the baseline's misfit is structural, beyond noise before any mechanism ("
                  + structural + "): what the findings do not explain of it no mechanism in the library does.")
-    text += _rival_text(d)
     if unsure:
         text += " " + " ".join(f"{r['mechanism'].replace('_', ' ')} would explain it as well ({r['reason']})."
                                for r in unsure)
@@ -237,7 +216,7 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
               f"{'yes' if t['discovered'] else 'no'} ({t['level']:g}) | {t['judged_cv_wins']:.0%} "
               f"({t['judged_cv_t']:.2f}) | {t['judged_validation_gain'] / max(t['validation_samples'], 1):.3g} / "
               f"{t['judged_block_spread']:.3g} | {t['guard_validation_gain']:.3g} | "
-              f"{'rival' if t.get('rival') else 'yes' if t['passed'] else 'no'} |" for t in d.trace]
+              f"{'yes' if t['passed'] else 'no'} |" for t in d.trace]
     lines += ["", "## Rejected", "", "| mechanism | reason |", "|---|---|"]
     lines += [f"| {r['mechanism']} | {r['reason']} |" for r in doc["rejected"]]
     lines += ["", "Files: `report.json`, `residuals.csv` (measured − prediction per channel), `residual_map.png`, "
