@@ -47,11 +47,10 @@ from __future__ import annotations
 import argparse
 import json
 import pickle
+import sys
 import time
 import warnings
 from pathlib import Path
-
-import sys
 
 import numpy as np
 
@@ -224,8 +223,9 @@ def run_task(name: str, conf: dict, args) -> dict:
 
 
 def inner_table(name: str, args) -> str:
-    """Why a choice goes wrong: every portfolio candidate (networks aside) with its inner-fold RMSEs (µm), their
-    (mean + worst) / 2 and its held-out RMSE after the refit on the whole training part (µm)."""
+    """Why a choice goes wrong: every portfolio candidate (networks aside; with ``--inner-tpe`` also the TPE
+    candidates of the task's default-budget leaderboard) with its inner-fold RMSEs (µm), their (mean + worst) / 2
+    and its held-out RMSE after the refit on the whole training part (µm)."""
     from thermodrift.core.automl import folds as inner
     from thermodrift.core.automl.evaluate import Evaluator
     from thermodrift.core.study import predict_rows
