@@ -174,10 +174,7 @@ def run_independent(gen, seed: int, folder: Path) -> dict:
             "localisation": None, "equivalent": why.startswith("not identifiable"),
             "share": gen.share, "misfit_over_noise": fit_rmse / noise, "heldout_over_fit": before / max(fit_rmse, 1e-9),
             "acf1": float(np.dot(r[1:], r[:-1]) / max(np.dot(r, r), 1e-300)), "why_not_hidden": why,
-            "verdict": doc["verdict"], "trace": _trace(d),
-            "baseline_fit_rmse_um": fit_rmse, "baseline_final_rmse_um": before,
-            "input_timing": next((r["timing"] for r in doc["adequacy"].get("input_timing", []) if r["chosen"]), None),
-            "input_timing_table": doc["adequacy"].get("input_timing", [])}
+            "verdict": doc["verdict"], "trace": _trace(d)}
 
 
 def independent_cases(args):
