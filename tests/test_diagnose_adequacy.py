@@ -1,7 +1,5 @@
-"""The baseline's expansion map and drive-input timing chosen on held-out data: a lag the drift reads its nodes
-through is kept, none is added where the drift reads them directly, and a lagged reading does not disturb the node
-it reads; a speed logged as interval means is held backward, one logged as the integrator holds it stays
-forward."""
+"""The baseline's expansion map chosen on held-out data: a lag the drift reads its nodes through is kept, none is
+added where the drift reads them directly, and a lagged reading does not disturb the node it reads."""
 
 from __future__ import annotations
 
@@ -12,12 +10,11 @@ import numpy as np
 import pytest
 
 from thermodrift.core import physics
-from thermodrift.core.physics.calibration import calibrate, predict
+from thermodrift.core.physics.calibration import predict
 from thermodrift.core.physics.diagnose import adequacy, final_cut, screening
 from thermodrift.core.physics.diagnose.concealed import concealed_case
 from thermodrift.core.physics.network import TemperatureSensor
-from thermodrift.core.physics.integrate import simulate
-from thermodrift.core.physics.scenarios import Block, Scenario, blocks, daily_cycle
+from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.recording import Recording
 
 
@@ -80,48 +77,3 @@ def test_the_lag_the_drift_reads_through_is_kept_and_none_is_added_otherwise(nul
     assert chosen == (0.25,)
     kept = next(r for r in table if r["chosen"])
     assert kept["heldout_drift_error"] < 0.5 * table[0]["heldout_drift_error"]
-
-
-@pytest.fixture(scope="module")
-def timing_case():
-    """The demo spindle run through speed steps, logged every 10 min: its speed as the integrator holds it
-    (forward) and as an averaging logger writes it (the mean over the interval ending at each sample)."""
-    net = physics.load_network("demo_spindle")
-    prog = [b for n in (3000, 6000, 1500, 4500, 6000) for b in (Block(2.0, n), Block(1.0))]
-    rec = simulate(net, blocks(prog, 600.0, ambient=daily_cycle(20.0, 22.0))).to_recording(seed=3)
-    speed = rec.columns("speed")[0]
-    data = rec.data.copy()
-    v = data[speed].to_numpy()
-    data[speed] = np.r_[v[0], v[:-1]]  # the mean over (t_{k-1}, t_k] of a speed held forward from t_{k-1}
-    channels = dict(rec.channels)
-    return rec, Recording(data, channels, "averaging logger")
-
-
-def test_a_speed_logged_as_interval_means_is_held_backward_and_one_logged_forward_keeps_the_default(timing_case):
-    chosen = {}
-    for name, rec in zip(("forward", "means"), timing_case):
-        inner, val = _split(rec)
-        inner_rec = rec.select(np.isin(np.arange(len(rec)), inner))
-        cal = calibrate(inner_rec, None, hidden_nodes=(0.5, 4.0), intervals=False, max_evaluations=60,
-                        prior_strength=0.0)
-        timing, table, _ = adequacy.choose_timing(cal, rec, inner, val, (0.5, 4.0), 60, screening.baseline_of)
-        chosen[name] = (timing, {r["timing"]: r for r in table})
-    assert chosen["forward"][0] == "forward"
-    timing, rows = chosen["means"]
-    assert timing == "backward" and rows["backward"]["chosen"]
-    assert rows["backward"]["heldout_error"] < 0.9 * rows["forward"]["heldout_error"]
-    assert rows["backward"]["blocks_error"] < 0.9 * rows["forward"]["blocks_error"]
-
-
-def test_backward_timing_moves_only_the_drive_inputs_and_never_across_a_cut(timing_case):
-    rec = timing_case[1]
-    speed = rec.columns("speed")[0]
-    cut = len(rec) // 2
-    held = adequacy.with_timing(rec, "backward", (cut,))
-    v, w = rec.data[speed].to_numpy(), held.data[speed].to_numpy()
-    assert np.array_equal(w[:cut - 1], v[1:cut]) and w[cut - 1] == v[cut - 1]   # the row before the cut keeps its own
-    assert np.array_equal(w[cut:-1], v[cut + 1:]) and w[-1] == v[-1]
-    others = [c for c in rec.data.columns if c != speed]
-    assert held.data[others].equals(rec.data[others])                          # temperatures, drift as logged
-    assert (held.conditions().to_numpy() == rec.conditions().to_numpy()).all()  # blocks of the logged speed
-    assert adequacy.with_timing(rec, "forward") is rec

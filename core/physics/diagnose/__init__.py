@@ -153,38 +153,21 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         from thermodrift.core import registry as reg_module
         registry = reg_module.default()
     t = recording.time_s
-    logged = recording
     fit_rows = t < final_cut(recording)
     fit_rec = recording.select(fit_rows)
     scenario = Scenario.from_recording(recording)
     inner_rows = fit_rows & (t < final_cut(fit_rec))
     inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
-    final_start = int(np.flatnonzero(~fit_rows)[0]) if (~fit_rows).any() else len(recording)
     structure: list[dict[str, Any]] = []
     lag_table: list[dict[str, Any]] = []
-    timing_table: list[dict[str, Any]] = []
-    inner_rec = recording.select(inner_rows)
     if network is None:
         # no prior on the auto baseline: the prior pulls its laws (heat ∝ n^p, constant convection) towards their
         # assumed form, which is what the finder tests; its own held-out checks guard against overfitting. On
         # FL_THERMAL the prior's weak pull (λ 0.001) hid a bearing heat law that cuts the unseen final block's
-        # ch3 error from 53.7 to 16.8 µm. Its hidden-node count is chosen on the inner validation block first,
-        # then the drive inputs' timing, then the expansion map's lags.
+        # ch3 error from 53.7 to 16.8 µm. Its hidden-node count is chosen on the inner validation block first.
         hidden, structure, inner_cal = adequacy.choose_hidden(recording, inner, val_rows, scenario,
                                                               baseline_evaluations, screening.baseline_of)
-        timing, timing_table, inner_cal = adequacy.choose_timing(inner_cal, recording, inner, val_rows, hidden,
-                                                                 baseline_evaluations, screening.baseline_of)
-        if timing != "forward":  # every step below reads the inputs so held; no value moves into a held-out block
-            choice = adequacy.with_timing(logged, timing, (val_rows[0], final_start))
-            inner_rec = choice.select(inner_rows)
-            lags, lag_table = adequacy.choose_lags(inner_cal, choice, inner, val_rows, Scenario.from_recording(choice),
-                                                   screening.baseline_of)
-            recording = adequacy.with_timing(logged, timing, (final_start,))
-            fit_rec = recording.select(fit_rows)
-            scenario = Scenario.from_recording(recording)
-        else:
-            lags, lag_table = adequacy.choose_lags(inner_cal, recording, inner, val_rows, scenario,
-                                                   screening.baseline_of)
+        lags, lag_table = adequacy.choose_lags(inner_cal, recording, inner, val_rows, scenario, screening.baseline_of)
         cal = calibrate(fit_rec, None, hidden_nodes=hidden, intervals=False, max_evaluations=baseline_evaluations,
                         prior_strength=0.0)
         if lags:
@@ -197,6 +180,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     measured = recording.data[channels].to_numpy(dtype=float)
     rows = np.flatnonzero(fit_rows)
     blocks = condition_blocks(recording, rows)
+    inner_rec = recording.select(inner_rows)
     before_validation = ~np.isin(np.arange(int(blocks.max()) + 1), blocks[np.isin(rows, val_rows)])
     displacement = np.array([k == "displacement" for k in kinds])
     base = screening.baseline_of(cal.network, scenario, channels, measured, rows, sigma)
@@ -204,7 +188,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     findings: list[dict[str, Any]] = []
     rejected: list[dict[str, Any]] = []
     accepted: set[str] = set()
-    windows = driver_windows(logged)
+    windows = driver_windows(recording)
     trace: list[dict[str, Any]] = []
     screened = 0
     adequate: dict[str, Any] = {}
@@ -254,7 +238,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                        validation.base_readings, screen.noise)
             adequate["hidden_nodes"] = structure
             adequate["expansion_lags"] = lag_table
-            adequate["input_timing"] = timing_table
         fitted = []
         for c in ranked:
             try:
@@ -335,9 +318,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             rejected.append({"mechanism": mid, "reason": "screened: its response explains less of the residual "
                                                          "than the candidates fitted"})
     return Diagnosis(channels, kinds, t, measured, first.readings, base.readings, fit_rows, findings,
-                     _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(logged),
+                     _dedupe(rejected, {f["mechanism"] for f in findings}), driver_windows(recording),
                      cal.network, base.network, screened, time.perf_counter() - clock,
-                     Scenario.from_recording(logged).frame["speed_rpm"].to_numpy(), trace, adequate)
+                     scenario.frame["speed_rpm"].to_numpy(), trace, adequate)
 
 
 def _judged_blocks(f, j) -> np.ndarray:

@@ -11,19 +11,7 @@ sensor, a casting behind a surface pad) and follows it through a conduction dela
 read every temperature node through a first-order lag (:data:`LAG_OPTIONS`, shorter than the slow structural
 mode the finder tests), its sensitivities solved linearly beside the direct ones, so that lead and lag are both
 expressible; a lag is kept only when it cuts the drift error by :data:`MIN_GAIN` on the validation block and
-on the inner condition blocks, each left out in turn.
-
-Between the two, the drive inputs' timing (:func:`choose_timing`, :data:`TIMINGS`): the integrator holds each
-logged value over the step after its sample (``forward``), right for a logger that samples the value at the
-start of its interval; a logger that writes the mean over the interval ending at its sample (CNC power and feed
-logs) or a change first seen at the next sample wants the value held over the step before it (``backward``).
-Held the wrong way, the heat input switches up to one log step late and the baseline leaves a fast misfit at
-every speed change, which a mechanism switched by the speed (a centrifugal n² step) then soaks. The timing
-applies to the drive inputs (:data:`DRIVE_ROLES`); the boundary temperatures (ambient, coolant inlet) are
-measured temperatures sampled like the sensors the model is compared with, continuous and slow against a log
-step, and stay as logged. It is chosen before the lags (their lagged readings follow the heat input, so they
-would absorb part of a timing error) and kept only when it cuts the balanced error by :data:`MIN_GAIN` on the
-validation block and on the inner condition blocks left out in turn. Links to the coolant or extra ambient paths are mechanisms
+on the inner condition blocks, each left out in turn. Links to the coolant or extra ambient paths are mechanisms
 the finder tests (``coolant_coupling``, ``ambient_coupling``): adding them here would hide what it is asked to
 find. The search happens in :func:`thermodrift.core.physics.diagnose.diagnose` only; the ``auto`` network that ``lptn``
 and ``lptn_hybrid`` calibrate keeps its default.
@@ -43,7 +31,6 @@ import numpy as np
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose.windows import condition_blocks
 from thermodrift.core.physics.network import Edge, Network, Node, TemperatureSensor
-from thermodrift.core.physics.scenarios import Scenario
 
 # Hidden nodes by their start time constants (h): the auto network's default pair, one more with a fast path
 # (minutes: heat that reaches the structure quicker than any surface sensor shows it) and a finer spread.
@@ -53,8 +40,6 @@ MIN_GAIN = 0.05
 # conduction delay between a sensor and the part that expands, below the slow structural mode's 0.5 h bound.
 LAG_OPTIONS = ((0.1,), (0.25,))
 LAG_PREFIX = "lag_"
-TIMINGS = ("forward", "backward")
-DRIVE_ROLES = ("speed", "cutting_power", "axis_velocity")  # the recording roles the timing applies to
 LAG_CAPACITY_J_K = 1.0  # a lag node draws ~1e-4 of its source node's heat flow: it reads, it does not cool
 STRUCTURAL_RATIO = 2.0  # fitted drift error over this many noise σ: misfit beyond noise (structural)
 
@@ -93,70 +78,6 @@ def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scena
     for row in table:
         row["chosen"] = tuple(row["time_constants_h"]) == best[0]
     return best[0], table, best[2]
-
-
-def with_timing(recording, timing: str, cuts=()):
-    """``recording`` with its drive inputs (:data:`DRIVE_ROLES`) held ``timing``: ``forward`` as logged (value k
-    over [t_k, t_{k+1})); ``backward``: value k+1 moved to row k, so that the integrator holds it over the
-    interval (t_k, t_{k+1}] it was logged for. No value moves across a row in ``cuts`` (the first rows of
-    held-out blocks): the row before a cut keeps its own value, so nothing before a block reads the block."""
-    if timing not in TIMINGS:
-        raise ValueError(f"unknown input timing {timing!r}; use one of {', '.join(TIMINGS)}")
-    if timing == "forward":
-        return recording
-    edges = sorted({0, len(recording), *(int(c) for c in cuts)})
-    moved = {}
-    for col in (c for role in DRIVE_ROLES for c in recording.columns(role)):
-        v = recording.data[col].to_numpy(dtype=float)
-        w = v.copy()
-        for a, b in zip(edges[:-1], edges[1:]):
-            w[a:b - 1] = v[a + 1:b]
-        moved[col] = w
-    out = recording.select(np.arange(len(recording)))  # keeps the condition labels of the logged speed
-    out.data = out.data.assign(**moved)
-    return out
-
-
-def choose_timing(cal, recording, inner_rows: np.ndarray, val_rows: np.ndarray, hidden: tuple[float, ...],
-                  evaluations: int, baseline_of) -> tuple[str, list[dict[str, Any]], Any]:
-    """The drive inputs' timing (:data:`TIMINGS`) for the auto baseline with ``hidden`` nodes, the table of every
-    option tried and its calibration on ``inner_rows`` (``cal``: the forward one). Each option is calibrated on
-    ``inner_rows`` (no input moved across the validation block's first row) and scored like the lags: balanced
-    noise-weighted error (temperature and drift channels half each) on ``val_rows`` with the linear map solved
-    on ``inner_rows``, and on the inner condition blocks, each solved without it; the drift part of both is
-    listed too. A non-default option is kept when both balanced errors fall by :data:`MIN_GAIN`."""
-    channels = list(cal.sigma)
-    kinds = [cal.channel_kind[c] for c in channels]
-    sigma = np.array([cal.sigma[c] for c in channels])
-    disp = np.array([k == "displacement" for k in kinds])
-    measured = recording.data[channels].to_numpy(dtype=float)
-    blocks = condition_blocks(recording, inner_rows)
-    cuts = (int(val_rows[0]), int(val_rows[-1]) + 1) if len(val_rows) else ()
-    table, best = [], None
-    for timing in TIMINGS:
-        rec = with_timing(recording, timing, cuts)
-        if timing != "forward":
-            cal_t = calibrate(rec.select(np.isin(np.arange(len(rec)), inner_rows)), None, hidden_nodes=hidden,
-                              intervals=False, max_evaluations=evaluations, prior_strength=0.0)
-        else:
-            cal_t = cal
-        scen = Scenario.from_recording(rec)
-
-        def errors(fit, score):
-            readings = baseline_of(cal_t.network, scen, channels, measured, fit, sigma).readings
-            drift = float(((((measured - readings) / sigma)[score][:, disp]) ** 2).mean())
-            return _balanced_error(measured, readings, sigma, kinds, score), drift
-
-        val, val_drift = errors(inner_rows, val_rows)
-        per_block = [errors(inner_rows[blocks != b], inner_rows[blocks == b]) for b in np.unique(blocks)]
-        cv, cv_drift = (float(np.mean([e[i] for e in per_block])) for i in (0, 1))
-        table.append({"timing": timing, "heldout_error": round(val, 4), "blocks_error": round(cv, 4),
-                      "heldout_drift_error": round(val_drift, 4), "blocks_drift_error": round(cv_drift, 4)})
-        if best is None or (val < (1 - MIN_GAIN) * best[1] and cv < (1 - MIN_GAIN) * best[2]):
-            best = (timing, val, cv, cal_t)
-    for row in table:
-        row["chosen"] = row["timing"] == best[0]
-    return best[0], table, best[3]
 
 
 def with_lags(network: Network, lags_h: tuple[float, ...]) -> Network:

@@ -16,9 +16,8 @@ Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``
 evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
 whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
-its residual's correlation, its validation error against its fitted error, the hidden-node counts tried,
-``expansion_lags``, the expansion map's lags tried, and ``input_timing``, the drive inputs' timings tried with
-their held-out errors and the one chosen).
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and,
+``expansion_lags``, the expansion map's lags tried).
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
@@ -174,12 +173,6 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                           f"fitted {h['fitted_error']:.4g}, held out {h['heldout_error']:.4g}"
                           + (" (chosen)" if h.get("chosen") else "")
                           for h in a["hidden_nodes"]) + "."]
-        if a.get("input_timing"):
-            lines += ["", "Drive inputs' timing (speed, cutting power, axis velocity held over the step after their "
-                      "sample, or before it as an averaging logger writes them), kept when it cuts the balanced error "
-                      "on the inner validation block and on the inner condition blocks left out in turn: " + "; ".join(
-                          f"{h['timing']}: held out {h['heldout_error']:.4g}, blocks {h['blocks_error']:.4g}"
-                          + (" (chosen)" if h.get("chosen") else "") for h in a["input_timing"]) + "."]
         if a.get("expansion_lags"):
             lines += ["", "Expansion map: every temperature node also read through a first-order lag, kept when it "
                       "cuts the drift error (noise-weighted mean square) on the inner validation block and on the "
