@@ -40,7 +40,7 @@ def _cal(net):
 def test_a_lagged_reading_follows_its_node_without_disturbing_it(null_case):
     net, sc = null_case.baseline, Scenario.from_recording(null_case.recording)
     lagged = adequacy.with_lags(net, (0.25,))
-    added = [n for n in lagged.node_names if adequacy.is_lag_node(n)]
+    added = [n for n in lagged.node_names if adequacy.is_lag_node(lagged, n)]
     assert added and all(set(added) <= set(o.sensitivity_um_K) for o in lagged.outputs)
     (plain, X0), (with_lag, X1) = predict(net, sc), predict(lagged, sc)
     temps = [s.name for s in net.sensors if isinstance(s, TemperatureSensor)]
@@ -66,7 +66,7 @@ def test_the_lag_the_drift_reads_through_is_kept_and_none_is_added_otherwise(nul
     assert chosen == () and [r["chosen"] for r in table] == [True, False, False]
     # the same machine whose drift reads its hottest node through a 0.25 h lag as well
     lagged = adequacy.with_lags(net, (0.25,))
-    lag = next(n for n in lagged.node_names if adequacy.is_lag_node(n))
+    lag = next(n for n in lagged.node_names if adequacy.is_lag_node(lagged, n))
     outputs = [dataclasses.replace(o, sensitivity_um_K={**o.sensitivity_um_K, lag: 4.0}) for o in lagged.outputs]
     truth = predict(lagged.replace(*outputs), sc)[0]
     data = rec.data.copy()
@@ -77,3 +77,22 @@ def test_the_lag_the_drift_reads_through_is_kept_and_none_is_added_otherwise(nul
     assert chosen == (0.25,)
     kept = next(r for r in table if r["chosen"])
     assert kept["heldout_drift_error"] < 0.5 * table[0]["heldout_drift_error"]
+
+
+def test_lagged_readings_are_marked_by_their_group_not_their_name(null_case):
+    from thermodrift.core import registry
+    from thermodrift.core.physics.network import Edge, Node
+
+    net = null_case.baseline
+    lagged = adequacy.with_lags(net, (0.1,))
+    added = set(lagged.node_names) - set(net.node_names)
+    assert added and all(lagged.node(n).group == adequacy.LAG_GROUP for n in added)
+    for mid in registry.names("mechanism"):                     # no mechanism finds a part to act on there
+        for options in registry.get("mechanism", mid).factory.places(lagged):
+            assert not screening._names_lag_node(lagged, options), (mid, options)
+    # a real part whose name happens to carry the prefix is a place like any other
+    housing = net.nodes_in("housing")[0]
+    real = net.add(Node("lag_cover", 2.0e4, "housing"), Edge("lag_cover-edge", housing, "lag_cover", 5.0))
+    assert not adequacy.is_lag_node(real, "lag_cover")
+    assert any("lag_cover" in (o.get("nodes") or []) for mid in registry.names("mechanism")
+               for o in registry.get("mechanism", mid).factory.places(real))

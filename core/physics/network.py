@@ -5,7 +5,8 @@ State equation (one row per node i, temperatures T in °C)::
     C_i dT_i/dt = Σ_j G_ij(n) (T_j − T_i) + G_i,amb(n) (T_amb − T_i) + advection + Q_i(n, T, signals)
 
 * :class:`Node` — heat capacity C (J/K) and a ``group`` (bearing, shaft, motor, housing, structure, coolant,
-  table, screw, tool) that mechanisms use to find where to act.
+  table, screw, tool) that mechanisms use to find where to act; ``reading``: a node of negligible capacity that
+  only follows another (a lagged reading in an expansion map), no part for a mechanism to act on.
 * :class:`Edge` — conductance G (W/K) between two nodes or a node and a boundary (``ambient`` or ``coolant``);
   convection on rotating parts grows as G + G_rot·(n/n_ref)^0.7. Radiation is linearised:
   G = 4εσT_m³A (:func:`radiation_conductance`).
@@ -39,7 +40,7 @@ from thermodrift.core.physics.sensors import DisplacementSensor, Sensor, Tempera
 from thermodrift.core.recording import TEMPERATURE_ROLES
 
 BOUNDARIES = ("ambient", "coolant")
-GROUPS = ("bearing", "shaft", "motor", "housing", "structure", "coolant", "table", "screw", "tool")
+GROUPS = ("bearing", "shaft", "motor", "housing", "structure", "coolant", "table", "screw", "tool", "reading")
 EDGE_KINDS = ("conduction", "contact", "convection", "radiation")
 STEFAN_BOLTZMANN_W_M2K4 = 5.670374419e-8
 

@@ -40,6 +40,7 @@ MIN_GAIN = 0.05
 # conduction delay between a sensor and the part that expands, below the slow structural mode's 0.5 h bound.
 LAG_OPTIONS = ((0.1,), (0.25,))
 LAG_PREFIX = "lag_"
+LAG_GROUP = "reading"  # the network group of a lagged reading: no mechanism is placed on it
 LAG_CAPACITY_J_K = 1.0  # a lag node draws ~1e-4 of its source node's heat flow: it reads, it does not cool
 STRUCTURAL_RATIO = 2.0  # fitted drift error over this many noise σ: misfit beyond noise (structural)
 
@@ -88,10 +89,9 @@ def with_lags(network: Network, lags_h: tuple[float, ...]) -> Network:
             if n in network.node_names]
     added = []
     for node in dict.fromkeys(read):
-        group = network.node(node).group
         for tau in lags_h:
             lag = f"{LAG_PREFIX}{node}_{round(tau * 60)}min"
-            added += [Node(lag, LAG_CAPACITY_J_K, group),
+            added += [Node(lag, LAG_CAPACITY_J_K, LAG_GROUP),
                       Edge(f"{node}-{lag}", node, lag, LAG_CAPACITY_J_K / (tau * 3600.0), kind="conduction")]
     lagged = [n.name for n in added if isinstance(n, Node)]
     outputs = [dataclasses.replace(o, sensitivity_um_K={**o.sensitivity_um_K, **{n: 0.0 for n in lagged}})
@@ -99,9 +99,10 @@ def with_lags(network: Network, lags_h: tuple[float, ...]) -> Network:
     return network.add(*added).replace(*outputs).validate()
 
 
-def is_lag_node(name: str) -> bool:
-    """A node added by :func:`with_lags` (no mechanism is placed on it)."""
-    return str(name).startswith(LAG_PREFIX)
+def is_lag_node(network: Network, name: str) -> bool:
+    """Whether ``name`` is a lagged reading in ``network`` (a node of group :data:`LAG_GROUP`, as
+    :func:`with_lags` adds): no mechanism is placed on it."""
+    return name in network.node_names and network.node(name).group == LAG_GROUP
 
 
 def choose_lags(cal, recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario,

@@ -179,7 +179,7 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
             continue
         found, errors = 0, []
         for options in cls.places(base.network):
-            if _names_lag_node(options):  # the expansion map's lagged reading of a node, no part to act on
+            if _names_lag_node(base.network, options):  # the expansion map's lagged reading of a node, no part to act on
                 continue
             for shape in SHAPES.get(mid, [{}]):
                 try:
@@ -203,9 +203,9 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
     return out, rejected
 
 
-def _names_lag_node(options: dict[str, Any]) -> bool:
+def _names_lag_node(network, options: dict[str, Any]) -> bool:
     values = [v for x in options.values() for v in (x if isinstance(x, (list, tuple)) else [x])]
-    return any(isinstance(v, str) and is_lag_node(v) for v in values)
+    return any(isinstance(v, str) and is_lag_node(network, v) for v in values)
 
 
 def _basis(Z: np.ndarray, rows: np.ndarray) -> np.ndarray:
