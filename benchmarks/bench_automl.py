@@ -269,16 +269,17 @@ def inner_table(name: str, args) -> str:
 
 
 def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
-    """Held-out RMSE (µm) of the final-choice rules on one task's ``--inner-table --inner-tpe`` predictions (networks
-    aside), with :mod:`thermodrift.core.automl.search`'s candidate rules: TPE candidates eligible when they earn their
-    place against the best a-priori one; ``one-SE flat``: the search's rule (the equal-weight average of the one-SE
-    set, of TPE's candidates each family's best, identical predictions once, at most ``pool``; with fewer than two
-    members the greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible
-    candidate with the best inner score; ``one vote per family and input set``: the one-SE set keeping the best
-    member per (family, features)."""
-    from thermodrift.core.automl.ensemble import caruana, out_of_fold
+    """Held-out RMSE (µm) and member count of the final-choice rules on one task's ``--inner-table --inner-tpe``
+    predictions (networks aside), through :mod:`thermodrift.core.automl.search`'s own functions: TPE candidates
+    eligible when they earn their place against the best a-priori one; ``one-SE flat``: the search's rule (the
+    equal-weight average of :func:`~thermodrift.core.automl.search.one_se_set`; with fewer than two members the
+    greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible candidate with the
+    best inner score; ``one vote per family and input set``: the one-SE set keeping the best member per family and
+    input set; ``hindsight best candidate``: the best held out, which no rule can know."""
+    from thermodrift.core.automl.evaluate import Evaluation
     from thermodrift.core.automl.folds import aggregate
-    from thermodrift.core.automl.search import earns_its_place
+    from thermodrift.core.automl.search import (Entry, diverse_pool, earns_its_place, family_and_inputs,
+                                                greedy_weights, one_se_set)
 
     truth, fold_truth = saved["truth"], saved["fold_truth"]
 
@@ -288,64 +289,37 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     def inner_score(preds):
         return aggregate([rmse(p, y) for p, y in zip(preds, fold_truth)])
 
-    cands = [dict(c, number=i) for i, c in enumerate(saved["candidates"]) if np.isfinite(c["score"])]
-    prior = [c for c in cands if c["phase"] != "tpe"]
-    ref = min(prior, key=lambda c: (c["score"], c["number"]))
-    ok = sorted((c for c in cands if c["phase"] != "tpe" or earns_its_place(c["fold_rmse"], ref["fold_rmse"])),
-                key=lambda c: (c["score"], c["number"]))
+    entries = [Entry(i, space.Candidate(c["params"]), Evaluation(c["fold_rmse"], {}, c["score"], c["fold_pred"]),
+                     phase=c["phase"]) for i, c in enumerate(saved["candidates"]) if np.isfinite(c["score"])]
+    held_pred = {i: np.asarray(c["pred"]) for i, c in enumerate(saved["candidates"])}
+    prior = [e for e in entries if e.phase != "tpe"]
+    ref = min(prior, key=lambda e: (e.score, e.number))
+    ok = sorted((e for e in entries if e.phase != "tpe" or earns_its_place(e.evaluation.fold_rmse,
+                                                                          ref.evaluation.fold_rmse)),
+                key=lambda e: (e.score, e.number))
     best = ok[0]
 
-    def one_se(key):
-        members, tuned, seen = [], set(), set()
-        for c in ok:
-            fam = c["params"]["model"]
-            if earns_its_place(best["fold_rmse"], c["fold_rmse"]) or (c["phase"] == "tpe" and fam in tuned):
-                continue
-            if c["phase"] == "tpe":
-                tuned.add(fam)
-            k = key(c)
-            if k in seen or any(all(np.allclose(p, q) for p, q in zip(c["fold_pred"], m["fold_pred"]))
-                                for m in members):
-                continue
-            seen.add(k)
-            members.append(c)
-            if len(members) == pool:
-                break
-        return members
-
-    def greedy():
-        chosen, seen = [], set()
-        for c in ok:
-            k = (c["params"]["model"], json.dumps(c["params"].get("features"), sort_keys=True))
-            if k not in seen:
-                seen.add(k)
-                chosen.append(c)
-            if len(chosen) == pool:
-                break
-        preds = [c["fold_pred"] for c in chosen]
-        if len(preds) < 2:
-            return None
-        weights, score = caruana(preds, inner_score)
-        if np.count_nonzero(weights) < 2 or not score < best["score"]:
-            return None
-        ens, single = out_of_fold(preds, lambda p, k: rmse(p, fold_truth[k]), aggregate)
-        if np.isfinite(ens) and not ens < single:
-            return None
-        return [(w, c) for w, c in zip(weights, chosen) if w > 0]
+    def predictions(e):
+        return e.evaluation.predictions
 
     def held(members):
-        return rmse(sum(w * c["pred"] for w, c in members), truth), len(members)
+        return rmse(sum(w * held_pred[e.number] for w, e in members), truth), len(members)
 
-    flat = one_se(lambda c: c["number"])
+    def average(members):
+        return held([(1 / len(members), e) for e, _ in members])
+
+    flat = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool)
     if len(flat) >= 2:
-        current = held([(1 / len(flat), c) for c in flat])
+        current = average(flat)
     else:
-        current = held(greedy() or [(1.0, best)])
-    vote = one_se(lambda c: (c["params"]["model"], json.dumps(c["params"].get("features"), sort_keys=True)))
+        chosen = diverse_pool(ok, pool)
+        weights = greedy_weights([predictions(e) for e in chosen], inner_score, lambda p, k: rmse(p, fold_truth[k]),
+                                 best.score, Settings().ensemble_steps)[0] if len(chosen) >= 2 else None
+        current = held([(w, e) for w, e in zip(weights, chosen) if w > 0] if weights is not None else [(1.0, best)])
+    vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs)
     return {"one-SE flat": current, "best single": held([(1.0, best)]),
-            "one vote per family and input set": held([(1 / len(vote), c) for c in vote]) if len(vote) >= 2
-            else current,
-            "hindsight best candidate": min(((rmse(c["pred"], truth), 1) for c in cands), key=lambda x: x[0])}
+            "one vote per family and input set": average(vote) if len(vote) >= 2 else current,
+            "hindsight best candidate": min((held([(1.0, e)]) for e in entries), key=lambda x: x[0])}
 
 
 def rules_table(names: list[str], args) -> str:

@@ -22,7 +22,7 @@ import sys
 import time
 import warnings
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 import optuna
@@ -304,21 +304,8 @@ class Search:
         greedy ensemble decides (:meth:`_ensemble`)."""
         if len(self.ev.folds) < 2:
             return None
-        ref = best.evaluation.fold_rmse
-        members: list[tuple[Entry, list[np.ndarray]]] = []
-        tuned: set[str] = set()
-        for e in sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number)):
-            if not np.isfinite(e.score) or earns_its_place(ref, e.evaluation.fold_rmse) or (
-                    e.phase == "tpe" and e.candidate.family in tuned):
-                continue
-            if e.phase == "tpe":
-                tuned.add(e.candidate.family)
-            preds = self._predictions(e)
-            if any(all(np.allclose(p, q) for p, q in zip(preds, other)) for _, other in members):
-                continue
-            members.append((e, preds))
-            if len(members) == self.settings.ensemble_pool:
-                break
+        ordered = sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number))
+        members = one_se_set(ordered, best.evaluation.fold_rmse, self._predictions, self.settings.ensemble_pool)
         if len(members) < 2:
             return None
         chosen = self._mixture([e for e, _ in members], [p for _, p in members], [1.0 / len(members)] * len(members),
@@ -344,28 +331,83 @@ class Search:
         filter bank; members that err differently are what an ensemble gains from), best first. Kept when it beats
         the best pipeline on the inner folds and, with two folds or more, also out of fold
         (:func:`thermodrift.core.automl.ensemble.out_of_fold`)."""
-        pool, seen = [], set()
-        for e in sorted(ok, key=lambda e: (e.score, e.number)):
-            key = (e.candidate.family, json.dumps(e.candidate.params.get("features"), sort_keys=True))
-            if key in seen or not self._full(e):
-                continue
-            seen.add(key)
-            pool.append(e)
-            if len(pool) == self.settings.ensemble_pool:
-                break
+        pool = diverse_pool(sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number)),
+                            self.settings.ensemble_pool)
         if len(pool) < 2:
             return None
         preds = [self._predictions(e) for e in pool]
-        weights, score = caruana(preds, lambda p: self.ev.score_predictions(p)[1], self.settings.ensemble_steps)
+        weights, score, oof = greedy_weights(preds, lambda p: self.ev.score_predictions(p)[1], self.ev.fold_rmse,
+                                             best.score, self.settings.ensemble_steps)
+        if weights is None:
+            if oof is not None:
+                self.say(f"automl: the greedy ensemble (inner score {score:.3f} µm) is not kept: out of fold it "
+                         f"scores {oof[0]:.3f} µm against {oof[1]:.3f} µm for choosing one pipeline")
+            return None
         used = np.flatnonzero(weights > 0)
-        if len(used) < 2 or not score < best.score:
-            return None
-        ens_oof, single_oof = out_of_fold(preds, self.ev.fold_rmse, aggregate, self.settings.ensemble_steps)
-        if np.isfinite(ens_oof) and not ens_oof < single_oof:
-            self.say(f"automl: the greedy ensemble (inner score {score:.3f} µm) is not kept: out of fold it scores "
-                     f"{ens_oof:.3f} µm against {single_oof:.3f} µm for choosing one pipeline")
-            return None
         return self._mixture([pool[i] for i in used], [preds[i] for i in used], [weights[i] for i in used], "greedy")
+
+
+def one_se_set(ordered: Sequence[Entry], best_fold_rmse: list[float],
+               predictions: Callable[[Entry], list[np.ndarray]], pool: int,
+               key: Callable[[Entry], object] | None = None) -> list[tuple[Entry, list[np.ndarray]]]:
+    """The members of :meth:`Search._hedge`'s average and their inner-fold predictions: of ``ordered`` (best
+    first), every candidate with a finite score that the best (per-fold RMSEs ``best_fold_rmse``, µm) does not beat
+    by one standard error, of TPE's only each family's first, predictions identical to a member's once, at most
+    ``pool``. ``key``: also at most one member per key (a variant the benchmark replays)."""
+    members: list[tuple[Entry, list[np.ndarray]]] = []
+    tuned: set[str] = set()
+    keys: set = set()
+    for e in ordered:
+        if not np.isfinite(e.score) or earns_its_place(best_fold_rmse, e.evaluation.fold_rmse) or (
+                e.phase == "tpe" and e.candidate.family in tuned):
+            continue
+        if e.phase == "tpe":
+            tuned.add(e.candidate.family)
+        k = key(e) if key is not None else None
+        if k is not None and k in keys:
+            continue
+        preds = predictions(e)
+        if any(all(np.allclose(p, q) for p, q in zip(preds, other)) for _, other in members):
+            continue
+        keys.add(k)
+        members.append((e, preds))
+        if len(members) == pool:
+            break
+    return members
+
+
+def family_and_inputs(e: Entry) -> tuple[str, str]:
+    """A candidate's family and input set (raw or a filter bank's settings)."""
+    return e.candidate.family, json.dumps(e.candidate.params.get("features"), sort_keys=True)
+
+
+def diverse_pool(ordered: Sequence[Entry], pool: int) -> list[Entry]:
+    """The greedy ensemble's pool: the first (best) candidate of ``ordered`` per family and input set, at most
+    ``pool``; members that err differently are what an ensemble gains from."""
+    out, seen = [], set()
+    for e in ordered:
+        if family_and_inputs(e) not in seen:
+            seen.add(family_and_inputs(e))
+            out.append(e)
+        if len(out) == pool:
+            break
+    return out
+
+
+def greedy_weights(preds: list[list[np.ndarray]], score: Callable[[list[np.ndarray]], float],
+                   fold_rmse: Callable[[np.ndarray, int], float], best_score: float, steps: int
+                   ) -> tuple[np.ndarray | None, float, tuple[float, float] | None]:
+    """Caruana weights over the candidates' inner-fold predictions ``preds``, kept when two members or more beat
+    ``best_score`` (µm) on the inner folds and, with two folds or more, also out of fold
+    (:func:`thermodrift.core.automl.ensemble.out_of_fold`): (weights or None, their inner score, (ensemble,
+    single pipeline) out of fold when that test ran)."""
+    weights, inner = caruana(preds, score, steps)
+    if np.count_nonzero(weights > 0) < 2 or not inner < best_score:
+        return None, inner, None
+    ens_oof, single_oof = out_of_fold(preds, fold_rmse, aggregate, steps)
+    if np.isfinite(ens_oof) and not ens_oof < single_oof:
+        return None, inner, (ens_oof, single_oof)
+    return weights, inner, (ens_oof, single_oof)
 
 
 def earns_its_place(tuned: list[float], reference: list[float]) -> bool:
