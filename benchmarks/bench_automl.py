@@ -275,7 +275,8 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     equal-weight average of :func:`~thermodrift.core.automl.search.one_se_set`; with fewer than two members the
     greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible candidate with the
     best inner score; ``one vote per family and input set``: the one-SE set keeping the best member per family and
-    input set; ``hindsight best candidate``: the best held out, which no rule can know."""
+    input set; ``one-SE inverse-MSE weights``: the one-SE set weighted by the inverse of each member's mean squared
+    fold RMSE (Bates and Granger's combination); ``hindsight best candidate``: the best held out, which no rule can know."""
     from thermodrift.core.automl.evaluate import Evaluation
     from thermodrift.core.automl.folds import aggregate
     from thermodrift.core.automl.search import (Entry, diverse_pool, earns_its_place, family_and_inputs,
@@ -308,7 +309,8 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     def average(members):
         return held([(1 / len(members), e) for e, _ in members])
 
-    flat = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool)
+    # with one inner fold the search forms no one-SE set (no noise to estimate; :meth:`Search._hedge`)
+    flat = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool) if len(fold_truth) >= 2 else []
     if len(flat) >= 2:
         current = average(flat)
     else:
@@ -316,9 +318,12 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
         weights = greedy_weights([predictions(e) for e in chosen], inner_score, lambda p, k: rmse(p, fold_truth[k]),
                                  best.score, Settings().ensemble_steps)[0] if len(chosen) >= 2 else None
         current = held([(w, e) for w, e in zip(weights, chosen) if w > 0] if weights is not None else [(1.0, best)])
-    vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs)
+    vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs) if flat else []
+    inverse = [1.0 / np.mean(np.square(e.evaluation.fold_rmse)) for e, _ in flat]
     return {"one-SE flat": current, "best single": held([(1.0, best)]),
             "one vote per family and input set": average(vote) if len(vote) >= 2 else current,
+            "one-SE inverse-MSE weights": held([(w / sum(inverse), e) for w, (e, _) in zip(inverse, flat)])
+            if len(flat) >= 2 else current,
             "hindsight best candidate": min((held([(1.0, e)]) for e in entries), key=lambda x: x[0])}
 
 
