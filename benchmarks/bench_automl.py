@@ -276,11 +276,12 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible candidate with the
     best inner score; ``one vote per family and input set``: the one-SE set keeping the best member per family and
     input set; ``one-SE inverse-MSE weights``: the one-SE set weighted by the inverse of each member's mean squared
-    fold RMSE (Bates and Granger's combination); ``hindsight best candidate``: the best held out, which no rule can know."""
+    fold RMSE (Bates and Granger's combination); ``hindsight best candidate``: the best held out, which no rule can
+    know."""
     from thermodrift.core.automl.evaluate import Evaluation
     from thermodrift.core.automl.folds import aggregate
-    from thermodrift.core.automl.search import (Entry, diverse_pool, earns_its_place, family_and_inputs,
-                                                greedy_weights, one_se_set)
+    from thermodrift.core.automl.search import (Entry, diverse_pool, eligible, family_and_inputs, greedy_weights,
+                                                one_se_set)
 
     truth, fold_truth = saved["truth"], saved["fold_truth"]
 
@@ -293,11 +294,7 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     entries = [Entry(i, space.Candidate(c["params"]), Evaluation(c["fold_rmse"], {}, c["score"], c["fold_pred"]),
                      phase=c["phase"]) for i, c in enumerate(saved["candidates"]) if np.isfinite(c["score"])]
     held_pred = {i: np.asarray(c["pred"]) for i, c in enumerate(saved["candidates"])}
-    prior = [e for e in entries if e.phase != "tpe"]
-    ref = min(prior, key=lambda e: (e.score, e.number))
-    ok = sorted((e for e in entries if e.phase != "tpe" or earns_its_place(e.evaluation.fold_rmse,
-                                                                          ref.evaluation.fold_rmse)),
-                key=lambda e: (e.score, e.number))
+    ok = sorted(eligible(entries, [e for e in entries if e.phase != "tpe"])[0], key=lambda e: (e.score, e.number))
     best = ok[0]
 
     def predictions(e):

@@ -272,9 +272,7 @@ class Search:
         prior = [e for e in ok if e.phase != "tpe" and self._full(e)]
         if not prior:
             return ok
-        ref = min(prior, key=lambda e: (e.score, e.number))
-        keep = [e for e in ok if e.phase != "tpe" or earns_its_place(e.evaluation.fold_rmse,
-                                                                     ref.evaluation.fold_rmse)]
+        keep, ref = eligible(ok, prior)
         if len(keep) < len(ok):
             self.say(f"automl: {len(ok) - len(keep)} TPE candidate(s) left out of the final choice: tuned on the "
                      f"folds that score them, they do not beat #{ref.number} ({space.describe(ref.candidate.params)}"
@@ -347,6 +345,15 @@ class Search:
         return self._mixture([pool[i] for i in used], [preds[i] for i in used], [weights[i] for i in used], "greedy")
 
 
+def eligible(ok: Sequence[Entry], prior: Sequence[Entry]) -> tuple[list[Entry], Entry]:
+    """Of ``ok``, every a-priori candidate and the TPE ones that beat the best of ``prior`` (the a-priori candidates
+    trained as their refit will be) by one standard error across the folds (:func:`earns_its_place`); and that
+    best."""
+    ref = min(prior, key=lambda e: (e.score, e.number))
+    return [e for e in ok if e.phase != "tpe" or earns_its_place(e.evaluation.fold_rmse,
+                                                                 ref.evaluation.fold_rmse)], ref
+
+
 def one_se_set(ordered: Sequence[Entry], best_fold_rmse: list[float],
                predictions: Callable[[Entry], list[np.ndarray]], pool: int,
                key: Callable[[Entry], object] | None = None) -> list[tuple[Entry, list[np.ndarray]]]:
@@ -386,8 +393,9 @@ def diverse_pool(ordered: Sequence[Entry], pool: int) -> list[Entry]:
     ``pool``; members that err differently are what an ensemble gains from."""
     out, seen = [], set()
     for e in ordered:
-        if family_and_inputs(e) not in seen:
-            seen.add(family_and_inputs(e))
+        key = family_and_inputs(e)
+        if key not in seen:
+            seen.add(key)
             out.append(e)
         if len(out) == pool:
             break

@@ -179,7 +179,7 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
             continue
         found, errors = 0, []
         for options in cls.places(base.network):
-            if _names_lag_node(base.network, options):  # the expansion map's lagged reading of a node, no part to act on
+            if _names_lag_node(base.network, options):  # an expansion map's lagged reading, no part to act on
                 continue
             for shape in SHAPES.get(mid, [{}]):
                 try:
