@@ -65,3 +65,6 @@ def test_final_rules_replay_the_search_rules():
     assert r["best single"] == (2.0, 1)
     assert r["one-SE flat"] == (0.5, 2)  # (2.0 - 1.0) / 2: a and b averaged; c beaten, d not eligible
     assert r["hindsight best candidate"] == (0.0, 1)
+    w = np.array([1.0, 1.0 / np.mean(np.square([1.1, 0.9, 1.05]))])  # inverse mean squared fold RMSE of a and b
+    held, members = r["one-SE inverse-MSE weights"]
+    assert members == 2 and np.isclose(held, abs(2.0 * w[0] - 1.0 * w[1]) / w.sum()) and held > 0.5  # b weighs less
