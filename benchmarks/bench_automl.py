@@ -271,17 +271,17 @@ def inner_table(name: str, args) -> str:
 def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     """Held-out RMSE (µm) and member count of the final-choice rules on one task's ``--inner-table --inner-tpe``
     predictions (networks aside), through :mod:`thermodrift.core.automl.search`'s own functions: TPE candidates
-    eligible when they earn their place against the best a-priori one; ``one-SE flat``: the search's rule (the
-    equal-weight average of :func:`~thermodrift.core.automl.search.one_se_set`; with fewer than two members the
-    greedy ensemble when it wins in and out of fold, else the best); ``best single``: the eligible candidate with the
-    best inner score; ``one vote per family and input set``: the one-SE set keeping the best member per family and
-    input set; ``one-SE inverse-MSE weights``: the one-SE set weighted by the inverse of each member's mean squared
-    fold RMSE (Bates and Granger's combination); ``hindsight best candidate``: the best held out, which no rule can
-    know."""
+    eligible when they earn their place against the best a-priori one; ``one-SE inverse-MSE weights``: the
+    search's rule (the average of :func:`~thermodrift.core.automl.search.one_se_set` with
+    :func:`~thermodrift.core.automl.search.inverse_mse_weights`; with fewer than two members the greedy ensemble
+    when it wins in and out of fold, else the best); ``one-SE flat``: the same set with equal weights (the rule
+    before); ``best single``: the eligible candidate with the best inner score; ``one vote per family and input
+    set``: the one-SE set keeping the best member per family and input set (equal weights); ``hindsight best
+    candidate``: the best held out, which no rule can know."""
     from thermodrift.core.automl.evaluate import Evaluation
     from thermodrift.core.automl.folds import aggregate
     from thermodrift.core.automl.search import (Entry, diverse_pool, eligible, family_and_inputs, greedy_weights,
-                                                one_se_set)
+                                                inverse_mse_weights, one_se_set)
 
     truth, fold_truth = saved["truth"], saved["fold_truth"]
 
@@ -309,35 +309,32 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     # with one inner fold the search forms no one-SE set (no noise to estimate; :meth:`Search._hedge`)
     flat = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool) if len(fold_truth) >= 2 else []
     if len(flat) >= 2:
-        current = average(flat)
+        current = held(list(zip(inverse_mse_weights([e for e, _ in flat]), (e for e, _ in flat))))
     else:
         chosen = diverse_pool(ok, pool)
         weights = greedy_weights([predictions(e) for e in chosen], inner_score, lambda p, k: rmse(p, fold_truth[k]),
                                  best.score, Settings().ensemble_steps)[0] if len(chosen) >= 2 else None
         current = held([(w, e) for w, e in zip(weights, chosen) if w > 0] if weights is not None else [(1.0, best)])
     vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs) if flat else []
-    inverse = [1.0 / np.mean(np.square(e.evaluation.fold_rmse)) for e, _ in flat]
-    return {"one-SE flat": current, "best single": held([(1.0, best)]),
+    return {"one-SE inverse-MSE weights": current, "one-SE flat": average(flat) if len(flat) >= 2 else current,
+            "best single": held([(1.0, best)]),
             "one vote per family and input set": average(vote) if len(vote) >= 2 else current,
-            "one-SE inverse-MSE weights": held([(w / sum(inverse), e) for w, (e, _) in zip(inverse, flat)])
-            if len(flat) >= 2 else current,
             "hindsight best candidate": min((held([(1.0, e)]) for e in entries), key=lambda x: x[0])}
 
 
 def rules_table(names: list[str], args) -> str:
-    """:func:`final_rules` per task, and the geometric mean of each rule's held-out RMSE over the one-SE flat
-    rule's."""
+    """:func:`final_rules` per task, and the geometric mean of each rule's held-out RMSE over the search's rule's."""
     rows, ratios = [], {}
     for name in names:
         with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "rb") as fh:
             r = final_rules(pickle.load(fh))
         rows.append((name, r))
         for rule, (v, _) in r.items():
-            ratios.setdefault(rule, []).append(v / r["one-SE flat"][0])
+            ratios.setdefault(rule, []).append(v / r["one-SE inverse-MSE weights"][0])
     rules = list(rows[0][1])
     lines = ["| task | " + " | ".join(f"{r} (µm, members)" for r in rules) + " |", "|---|" + "---:|" * len(rules)]
     lines += [f"| {n} | " + " | ".join(f"{v:.3f} ({k})" for v, k in r.values()) + " |" for n, r in rows]
-    lines.append("| geometric mean / one-SE flat | " + " | ".join(
+    lines.append("| geometric mean / the search's rule | " + " | ".join(
         f"{np.exp(np.mean(np.log(ratios[r]))):.3f}" for r in rules) + " |")
     return "\n".join(lines)
 

@@ -312,7 +312,7 @@ def test_a_tuned_candidate_enters_the_final_choice_only_when_it_beats_the_a_prio
     assert said and "1 TPE candidate" in said[0]
 
 
-def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_with_flat_weights():
+def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_by_inverse_mean_squared_fold_rmse():
     import optuna
 
     from thermodrift.core.automl.evaluate import Evaluation
@@ -338,9 +338,16 @@ def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_with_fl
                               entry(ev, 3, [3.0, 3.0]))
     hedge = search._hedge([far, close, twin, best], best)
     assert hedge["numbers"] == [0, 1]  # the twin predicts as the best does and counts once; far is beaten
-    assert hedge["weights"] == [0.5, 0.5]
-    np.testing.assert_allclose(hedge["fold_rmse"], [0.05, 0.025], atol=1e-9)  # their errors partly cancel
+    w = np.array([1.0, 1.0 / np.mean(np.square([1.1, 0.95]))])
+    w /= w.sum()
+    np.testing.assert_allclose(hedge["weights"], w)  # the best's fold errors are smaller: it weighs more
+    assert hedge["weights"][0] > hedge["weights"][1]
+    np.testing.assert_allclose(hedge["fold_rmse"], [abs(w[0] - 1.1 * w[1]), abs(w[0] - 0.95 * w[1])],
+                               atol=1e-9)  # their errors partly cancel
     assert [m["model_params"]["alpha"] for m in hedge["members"]] == [0.0, 1.0]
+    swinging = entry(ev, 5, [-0.2, -2.2])  # kept in by its wide standard error, but its fold errors swing
+    swung = search._hedge([best, swinging], best)
+    assert swung["numbers"] == [0, 5] and swung["weights"][1] < 0.5 * swung["weights"][0]
     assert search._hedge([best, twin, far], best) is None  # nothing but the best itself
     tuned = [entry(ev, 4 + i, [1.0 + 0.01 * i, -1.0]) for i in range(3)]  # near-copies from one family's TPE
     for e in tuned:

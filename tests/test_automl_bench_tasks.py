@@ -63,8 +63,8 @@ def test_final_rules_replay_the_search_rules():
     saved = {"fold_truth": [np.zeros((2, 1))] * 3, "truth": np.zeros((2, 1)), "candidates": [a, b, c, d]}
     r = bench.final_rules(saved)
     assert r["best single"] == (2.0, 1)
-    assert r["one-SE flat"] == (0.5, 2)  # (2.0 - 1.0) / 2: a and b averaged; c beaten, d not eligible
+    assert r["one-SE flat"] == (0.5, 2)  # (2.0 - 1.0) / 2: a and b averaged; c beaten, d not eligible (the rule before)
     assert r["hindsight best candidate"] == (0.0, 1)
     w = np.array([1.0, 1.0 / np.mean(np.square([1.1, 0.9, 1.05]))])  # inverse mean squared fold RMSE of a and b
-    held, members = r["one-SE inverse-MSE weights"]
+    held, members = r["one-SE inverse-MSE weights"]  # the search's rule
     assert members == 2 and np.isclose(held, abs(2.0 * w[0] - 1.0 * w[1]) / w.sum()) and held > 0.5  # b weighs less

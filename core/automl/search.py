@@ -5,8 +5,9 @@ cheap families with the budget left, then the final choice.
 A TPE candidate's settings were chosen on the very folds that score it, so its score is optimistic (and more so
 the more trials TPE compares): it enters the final choice only when it beats the best a-priori candidate by more
 than one standard error of their per-fold differences (:func:`earns_its_place`; with one fold, never). The final
-choice is the flat average of the candidates the folds cannot tell from the best by that same rule
-(:meth:`Search._hedge`) when there are two or more, else the greedy ensemble when it wins, else the best pipeline.
+choice is the average of the candidates the folds cannot tell from the best by that same rule, each weighted by
+the inverse of its mean squared fold RMSE (:meth:`Search._hedge`, :func:`inverse_mse_weights`) when there are two
+or more, else the greedy ensemble when it wins, else the best pipeline.
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
@@ -289,28 +290,31 @@ class Search:
         return e.evaluation.predictions
 
     def _hedge(self, ok: list[Entry], best: Entry) -> dict | None:
-        """The equal-weight average of every candidate the inner folds cannot tell from the best: those the best
-        does not beat by more than one standard error of their per-fold differences (the one-standard-error rule's
-        set; :func:`earns_its_place` with the roles turned). Inside that set the folds rank by noise, and on a new
-        working condition the candidates extrapolate differently (filter banks, penalties, physics), so fitting
-        weights on the same folds would fit their noise; a flat average hedges across them (model averaging
-        under model uncertainty). Each a-priori candidate (fixed in advance as a distinct hypothesis) takes part,
-        but of TPE's candidates only each family's best: they are variations around one mode of the sampler (at
-        a larger budget dozens of near-copies) and would otherwise outvote the rest. Identical predictions (one
-        model under two names, a setting without effect) count once; at most ``ensemble_pool`` members, best
-        first. None with one inner fold (no noise to estimate) or when fewer than two members remain: then the
-        greedy ensemble decides (:meth:`_ensemble`)."""
+        """The average of every candidate the inner folds cannot tell from the best: those the best does not beat
+        by more than one standard error of their per-fold differences (the one-standard-error rule's set;
+        :func:`earns_its_place` with the roles turned), each weighted by the inverse of its mean squared fold RMSE
+        (:func:`inverse_mse_weights`). Inside that set the folds rank by noise, and on a new working condition the
+        candidates extrapolate differently (filter banks, penalties, physics), so weights fitted on the same folds
+        would fit their noise; fixed weights hedge across them (model averaging under model uncertainty), and the
+        inverse-MSE ones give less to a member whose fold errors swing (a wide standard error keeps it in the set).
+        Each a-priori candidate (fixed in advance as a distinct hypothesis) takes part, but of TPE's candidates
+        only each family's best: they are variations around one mode of the sampler (at a larger budget dozens of
+        near-copies) and would otherwise outvote the rest. Identical predictions (one model under two names, a
+        setting without effect) count once; at most ``ensemble_pool`` members, best first. None with one inner fold
+        (no noise to estimate) or when fewer than two members remain: then the greedy ensemble decides
+        (:meth:`_ensemble`)."""
         if len(self.ev.folds) < 2:
             return None
         ordered = sorted((e for e in ok if self._full(e)), key=lambda e: (e.score, e.number))
         members = one_se_set(ordered, best.evaluation.fold_rmse, self._predictions, self.settings.ensemble_pool)
         if len(members) < 2:
             return None
-        chosen = self._mixture([e for e, _ in members], [p for _, p in members], [1.0 / len(members)] * len(members),
-                               "one-SE set, equal weights")
+        entries = [e for e, _ in members]
+        chosen = self._mixture(entries, [p for _, p in members], inverse_mse_weights(entries),
+                               "one-SE set, inverse-MSE weights")
         self.say(f"automl: the inner folds cannot tell {len(members)} candidates from the best (one standard error "
-                 f"of their per-fold differences); their average is chosen (inner score {chosen['score']:.3f} µm, "
-                 f"best single {best.score:.3f} µm)")
+                 f"of their per-fold differences); their average weighted by inverse mean squared fold RMSE is "
+                 f"chosen (inner score {chosen['score']:.3f} µm, best single {best.score:.3f} µm)")
         return chosen
 
     def _mixture(self, entries: list[Entry], preds: list[list[np.ndarray]], weights: list[float], kind: str) -> dict:
@@ -381,6 +385,14 @@ def one_se_set(ordered: Sequence[Entry], best_fold_rmse: list[float],
         if len(members) == pool:
             break
     return members
+
+
+def inverse_mse_weights(members: Sequence[Entry]) -> list[float]:
+    """Weights of :meth:`Search._hedge`'s average: each member's inverse mean squared fold RMSE (µm⁻²), normalised
+    to sum to one (Bates and Granger's combination of forecasts, 1969, without the covariances that two or three
+    folds cannot estimate)."""
+    inverse = [1.0 / float(np.mean(np.square(e.evaluation.fold_rmse))) for e in members]
+    return [w / sum(inverse) for w in inverse]
 
 
 def family_and_inputs(e: Entry) -> tuple[str, str]:
