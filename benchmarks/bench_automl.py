@@ -12,8 +12,9 @@ generators (``benchmarks/independent``, no code shared with the library; ``fd`` 
 ``lumped`` a lumped network of another topology per seed), development seeds only (< 1000), four null cases and
 four with a planted mechanism per generator, written as table + manifest and read back through the public file
 format (dataset ``recording_file``); every drift channel, the last working condition holding at least 5 % of the
-rows held out (the training part keeps every condition before it). The default run is two small reference
-machines with small budgets (under 10 minutes on 2 cores).
+rows held out (the training part keeps every condition before it); group ``indep_sealed``, sixteen more of the
+same shape from the generators' sealed seeds (from 8000), fixed before they were first run. The default run is two
+small reference machines with small budgets (under 10 minutes on 2 cores).
 
 Per task:
 
@@ -88,10 +89,17 @@ INDEPENDENT = [("fd", 0, "ambient_coupling", False), ("fd", 1, "coolant_coupling
                ("fd", 4, "bearing_heat_law", False), ("fd", 5, "preload_feedback", False), ("fd", 504, None, False),
                ("fd", 505, None, True), ("lumped", 6, "sensor_lag", False), ("lumped", 7, "centrifugal_growth", False),
                ("lumped", 506, None, False), ("lumped", 507, None, True)]
+# a sealed set of the same shape, fixed before it was first run and run once with the final rule of the change that
+# added it: the sealed range from 8000 (independent.case_list), fd the first four mechanisms and four nulls, lumped
+# the next four and four nulls
+_sealed = independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=8000)
+SEALED = [("fd", s, h, c) for s, h, c in _sealed[:4] + _sealed[11:15]] + \
+         [("lumped", s, h, c) for s, h, c in _sealed[4:8] + _sealed[15:19]]
 TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
                                          "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
-              for g, s, h, c in INDEPENDENT})
-GROUPS = {"indep": [n for n, t in TASKS.items() if "generator" in t]}
+              for g, s, h, c in INDEPENDENT + SEALED})
+GROUPS = {"indep": [n for n, t in TASKS.items() if "generator" in t and t["case_seed"] < independent.SEALED_FROM],
+          "indep_sealed": [n for n, t in TASKS.items() if "generator" in t and t["case_seed"] >= independent.SEALED_FROM]}
 GROUPS["indep_first"], GROUPS["indep_second"] = GROUPS["indep"][:8], GROUPS["indep"][8:]
 QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
          "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
@@ -393,7 +401,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="every task, the default budget and three others")
     parser.add_argument("--tasks", nargs="*", help=f"a subset of {', '.join(TASKS)}, or the group indep (the "
-                        "independent-generator machines; indep_first, indep_second: its halves)")
+                        "independent-generator machines; indep_first, indep_second: its halves) or indep_sealed")
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")

@@ -44,6 +44,11 @@ def test_indep_group_names_every_independent_task():
     assert bench.GROUPS["indep"] and all("generator" in bench.TASKS[n] for n in bench.GROUPS["indep"])
     assert {bench.TASKS[n]["generator"] for n in bench.GROUPS["indep"]} == {"fd", "lumped"}
     assert all(bench.TASKS[n]["case_seed"] < 1000 for n in bench.GROUPS["indep"])  # development seeds only
+    sealed = bench.GROUPS["indep_sealed"]
+    assert len(sealed) == len(bench.GROUPS["indep"]) and not set(sealed) & set(bench.GROUPS["indep"])
+    assert all(bench.TASKS[n]["case_seed"] >= 1000 for n in sealed)  # the sealed half of the generators' seeds
+    assert {bench.TASKS[n]["generator"] for n in sealed} == {"fd", "lumped"}
+    assert sum(bench.TASKS[n]["hidden"] is None for n in sealed) == 8  # four nulls per generator
 
 
 def _cand(phase, fold_rmse, fold_pred, pred, model="mlr", features=None):
