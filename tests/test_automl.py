@@ -356,3 +356,15 @@ def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_by_inve
 
     ev1, search1 = search_on(1)
     assert search1._hedge([entry(ev1, 0, [1.0]), entry(ev1, 1, [-1.0])], entry(ev1, 0, [1.0])) is None
+
+
+def test_inverse_mse_weights_favour_the_steadier_member_and_survive_a_perfect_one():
+    from thermodrift.core.automl.evaluate import Evaluation
+    from thermodrift.core.automl.search import Entry, inverse_mse_weights
+
+    def entry(fold_rmse):
+        return Entry(0, space.Candidate({"model": "mlr"}), Evaluation(fold_rmse, {}, max(fold_rmse)))
+
+    w = inverse_mse_weights([entry([1.0, 1.0]), entry([0.0, 2.0])])  # mean squared fold RMSE 1 and 2
+    np.testing.assert_allclose(w, [2 / 3, 1 / 3])
+    assert inverse_mse_weights([entry([0.0, 0.0]), entry([1.0, 1.0]), entry([0.0, 0.0])]) == [0.5, 0.0, 0.5]

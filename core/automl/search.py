@@ -390,9 +390,10 @@ def one_se_set(ordered: Sequence[Entry], best_fold_rmse: list[float],
 def inverse_mse_weights(members: Sequence[Entry]) -> list[float]:
     """Weights of :meth:`Search._hedge`'s average: each member's inverse mean squared fold RMSE (µm⁻²), normalised
     to sum to one (Bates and Granger's combination of forecasts, 1969, without the covariances that two or three
-    folds cannot estimate)."""
-    inverse = [1.0 / float(np.mean(np.square(e.evaluation.fold_rmse))) for e in members]
-    return [w / sum(inverse) for w in inverse]
+    folds cannot estimate); members without fold error share all the weight."""
+    mse = np.array([np.mean(np.square(e.evaluation.fold_rmse)) for e in members], dtype=float)
+    inverse = (mse == 0).astype(float) if (mse == 0).any() else 1.0 / mse
+    return [float(w) for w in inverse / inverse.sum()]
 
 
 def family_and_inputs(e: Entry) -> tuple[str, str]:
