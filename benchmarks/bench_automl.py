@@ -374,7 +374,7 @@ def figure(results: list[dict], path: Path) -> None:
     RMSE itself, not its ratio to the hindsight best, so the curves do not depend on which families the hindsight
     run tried (``--hindsight-families``)."""
     from matplotlib.figure import Figure
-    from matplotlib.ticker import FormatStrFormatter, NullFormatter, ScalarFormatter
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter, ScalarFormatter
 
     fig = Figure(figsize=(11, 4))
     by_fits, by_time = fig.subplots(1, 2, sharey=True)
@@ -391,12 +391,13 @@ def figure(results: list[dict], path: Path) -> None:
         ax.set_yscale("log")
         ax.xaxis.set_major_formatter(ScalarFormatter())
         ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
         ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
         ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
         ax.set_xlabel(label)
     by_fits.set_xticks(sorted({a["budget"] for r in results for a in r["automl"]}))
     by_fits.set_ylabel("held-out RMSE (µm)")
-    by_fits.legend(fontsize=7)
+    fig.legend(fontsize=7, loc="center left", bbox_to_anchor=(0.91, 0.5))
     fig.savefig(path, dpi=110, bbox_inches="tight")
 
 
@@ -408,7 +409,8 @@ def main() -> None:
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
-    parser.add_argument("--figure", type=Path, default=Path("docs/automl_benchmark.png"))
+    parser.add_argument("--figure", type=Path, help="where the time-to-quality figure goes (default: "
+                        "<cache>/automl_benchmark.png; the docs' figure is drawn with --figure docs/automl_benchmark.png)")
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
     parser.add_argument("--hindsight-families", nargs="*",
@@ -458,6 +460,7 @@ def main() -> None:
         results.append(run_task(name, conf, args))
         path.write_text(json.dumps(results[-1], indent=1, default=float), encoding="utf-8")
     print(table(results))
+    args.figure = args.figure or args.cache / "automl_benchmark.png"
     args.figure.parent.mkdir(parents=True, exist_ok=True)
     figure(results, args.figure)
     print(f"figure: {args.figure}")
