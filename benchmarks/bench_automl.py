@@ -92,8 +92,8 @@ INDEPENDENT = [("fd", 0, "ambient_coupling", False), ("fd", 1, "coolant_coupling
 # a sealed set of the same shape, fixed before it was first run and run once with the final rule of the change that
 # added it: the sealed range from 8000 (independent.case_list), fd the first four mechanisms and four nulls, lumped
 # the next four and four nulls
-_planted = [c for c in independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=8000) if c[1]]
-_nulls = [c for c in independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=8000) if not c[1]]
+_cases = independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=8000)
+_planted, _nulls = [c for c in _cases if c[1]], [c for c in _cases if not c[1]]
 SEALED = [("fd", *c) for c in _planted[:4] + _nulls[:4]] + [("lumped", *c) for c in _planted[4:8] + _nulls[4:]]
 TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
                                          "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
