@@ -16,7 +16,7 @@ Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``
 evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
 whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
-its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and,
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and
 ``expansion_lags``, the expansion map's lags tried).
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
