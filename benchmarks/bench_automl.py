@@ -98,8 +98,9 @@ SEALED = [("fd", *c) for c in _planted[:4] + _nulls[:4]] + [("lumped", *c) for c
 TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
                                          "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
               for g, s, h, c in INDEPENDENT + SEALED})
-GROUPS = {"indep": [n for n, t in TASKS.items() if "generator" in t and t["case_seed"] < independent.SEALED_FROM],
-          "indep_sealed": [n for n, t in TASKS.items() if "generator" in t and t["case_seed"] >= independent.SEALED_FROM]}
+_machines = [n for n, t in TASKS.items() if "generator" in t]
+GROUPS = {"indep": [n for n in _machines if TASKS[n]["case_seed"] < independent.SEALED_FROM],
+          "indep_sealed": [n for n in _machines if TASKS[n]["case_seed"] >= independent.SEALED_FROM]}
 GROUPS["indep_first"], GROUPS["indep_second"] = GROUPS["indep"][:8], GROUPS["indep"][8:]
 QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
          "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
@@ -315,16 +316,16 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
         return held([(1 / len(members), e) for e, _ in members])
 
     # with one inner fold the search forms no one-SE set (no noise to estimate; :meth:`Search._hedge`)
-    flat = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool) if len(fold_truth) >= 2 else []
-    if len(flat) >= 2:
-        current = held(list(zip(inverse_mse_weights([e for e, _ in flat]), (e for e, _ in flat))))
+    one_se = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool) if len(fold_truth) >= 2 else []
+    if len(one_se) >= 2:
+        current = held(list(zip(inverse_mse_weights([e for e, _ in one_se]), (e for e, _ in one_se))))
     else:
         chosen = diverse_pool(ok, pool)
         weights = greedy_weights([predictions(e) for e in chosen], inner_score, lambda p, k: rmse(p, fold_truth[k]),
                                  best.score, Settings().ensemble_steps)[0] if len(chosen) >= 2 else None
         current = held([(w, e) for w, e in zip(weights, chosen) if w > 0] if weights is not None else [(1.0, best)])
-    vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs) if flat else []
-    return {"one-SE inverse-MSE weights": current, "one-SE flat": average(flat) if len(flat) >= 2 else current,
+    vote = one_se_set(ok, best.evaluation.fold_rmse, predictions, pool, key=family_and_inputs) if one_se else []
+    return {"one-SE inverse-MSE weights": current, "one-SE flat": average(one_se) if len(one_se) >= 2 else current,
             "best single": held([(1.0, best)]),
             "one vote per family and input set": average(vote) if len(vote) >= 2 else current,
             "hindsight best candidate": min((held([(1.0, e)]) for e in entries), key=lambda x: x[0])}
@@ -409,8 +410,8 @@ def main() -> None:
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"), help="per-task results (JSON)")
-    parser.add_argument("--figure", type=Path, help="where the time-to-quality figure goes (default: "
-                        "<cache>/automl_benchmark.png; the docs' figure is drawn with --figure docs/automl_benchmark.png)")
+    parser.add_argument("--figure", type=Path, help="where the time-to-quality figure goes (default: <cache>/"
+                        "automl_benchmark.png; the docs' figure is drawn with --figure docs/automl_benchmark.png)")
     parser.add_argument("--budgets", type=int, nargs="*", help="automl budgets (fits) besides the default one")
     parser.add_argument("--hindsight-trials", type=int, help="TPE trials per family for the hindsight best")
     parser.add_argument("--hindsight-families", nargs="*",
