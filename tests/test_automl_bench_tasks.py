@@ -73,3 +73,27 @@ def test_final_rules_replay_the_search_rules():
     w = np.array([1.0, 1.0 / np.mean(np.square([1.1, 0.9, 1.05]))])  # inverse mean squared fold RMSE of a and b
     held, members = r["one-SE inverse-MSE weights"]  # the search's rule
     assert members == 2 and np.isclose(held, abs(2.0 * w[0] - 1.0 * w[1]) / w.sum()) and held > 0.5  # b weighs less
+
+
+def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
+    spec = importlib.util.spec_from_file_location("bench_automl_variants", BENCH.parent / "bench_automl_variants.py")
+    variants = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(variants)
+    from thermodrift.core.automl import folds, search
+    aggregate, earns = folds.aggregate, search.earns_its_place
+    a = _cand("portfolio", [1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 2.0)    # best a-priori
+    c = _cand("portfolio", [3.0, 3.0, 3.0], [3.0, 3.0, 3.0], 0.5)    # clearly worse
+    t = _cand("tpe", [0.5, 0.5, 0.5], [0.5, 0.5, 0.5], 1.0)          # tuned, better on every fold: earns its place
+    saved = {"fold_truth": [np.zeros((2, 1))] * 3, "truth": np.zeros((2, 1)), "candidates": [a, c, t]}
+    r = variants.replay(saved, [100, 200, 300])
+    assert r["search's rule"] == _bench().final_rules(saved)["one-SE inverse-MSE weights"][0] == 1.0  # t chosen
+    assert r["a-priori only"] == 2.0  # without the tuned candidate, a is the choice
+    assert saved["candidates"][2]["phase"] == "tpe" and saved["candidates"][0]["score"] == aggregate([1.0] * 3)
+    assert folds.aggregate is aggregate and search.earns_its_place is earns  # the patches are undone
+    # the size-weighted score weighs the later folds more: [4, 1, 1] over sizes 1:1:2 gives 1.75, not (2 + 4) / 2
+    scores = {}
+    for label, patches in variants.variants([100, 100, 200]).items():
+        with variants._patched(patches):
+            scores[label] = folds.aggregate([4.0, 1.0, 1.0])
+    assert scores["size-weighted mean"] == 1.75 and scores["search's rule"] == 3.0 and scores["mean"] == 2.0
+    assert scores["(mean + last) / 2"] == 1.5 and np.isclose(scores["log SE + geometric mean"], 4 ** (1 / 3))

@@ -1,0 +1,159 @@
+"""Final-choice variants of ``thermodrift automl`` replayed offline, each written down before its replay (see
+``docs/automl_benchmark.md``, "Three more rules, written down before their replay"): the search's rule with one
+of its pieces swapped, on the inner-fold and held-out predictions that
+``bench_automl.py --inner-table --inner-tpe`` keeps per task.
+
+    python benchmarks/bench_automl_variants.py --tasks TASK ...   # default: every task with kept predictions
+
+Variants (the rest of the rule as in :mod:`thermodrift.core.automl.search`):
+
+- ``size-weighted mean``: the inner score is the mean of the fold RMSEs weighted by each fold's training rows,
+  instead of (mean + worst) / 2;
+- ``(mean + last) / 2``: the worst fold replaced by the last (the most training rows);
+- ``mean``: the plain mean of the fold RMSEs;
+- ``log-difference SE``: the one-standard-error test (the one-SE set and the TPE candidates' admission) on
+  per-fold differences of log RMSE instead of µm;
+- ``log SE + geometric mean``: the same, and the inner score the geometric mean of the fold RMSEs;
+- ``a-priori only``: TPE candidates never enter the final choice.
+
+Prints the held-out RMSE (µm) per task and the geometric mean of each variant's over the search's rule's per task
+group. A swap patches the library function for the replay only (``unittest.mock``): the search itself is not run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import pickle
+import sys
+import warnings
+from pathlib import Path
+from unittest import mock
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import bench_automl as bench  # noqa: E402 - the benchmark next to this script
+
+from thermodrift.core import registry, splits  # noqa: E402
+from thermodrift.core.automl import folds, search  # noqa: E402
+from thermodrift.core.automl.search import Settings  # noqa: E402
+
+
+def _finite(r) -> np.ndarray | None:
+    r = np.asarray(r, dtype=float)
+    return r if len(r) and np.isfinite(r).all() else None
+
+
+def variants(sizes: list[int]) -> dict[str, dict]:
+    """Each variant's patches (target → replacement) for a task whose inner folds train on ``sizes`` rows."""
+    def size_weighted(r):
+        r = _finite(r)
+        return float("inf") if r is None else float(np.average(r, weights=sizes[-len(r):]))
+
+    def mean_last(r):
+        r = _finite(r)
+        return float("inf") if r is None else float(0.5 * (r.mean() + r[-1]))
+
+    def mean(r):
+        r = _finite(r)
+        return float("inf") if r is None else float(r.mean())
+
+    def geometric(r):
+        r = _finite(r)
+        return float("inf") if r is None else float(np.exp(np.mean(np.log(np.maximum(r, 1e-12)))))
+
+    earns = search.earns_its_place
+
+    def earns_log(tuned, reference):
+        t, ref = np.asarray(tuned, dtype=float), np.asarray(reference, dtype=float)
+        if len(t) < 2 or not (np.isfinite(t).all() and np.isfinite(ref).all() and (t > 0).all() and (ref > 0).all()):
+            return earns(tuned, reference)
+        return earns(np.log(t), np.log(ref))
+
+    chosen = search.eligible
+
+    def prior_only(ok, prior):
+        keep, ref = chosen(ok, prior)
+        return [e for e in keep if e.phase != "tpe"], ref
+
+    score = ("thermodrift.core.automl.folds.aggregate", "thermodrift.core.automl.search.aggregate")
+    return {"search's rule": {},
+            "size-weighted mean": {p: size_weighted for p in score},
+            "(mean + last) / 2": {p: mean_last for p in score},
+            "mean": {p: mean for p in score},
+            "log-difference SE": {"thermodrift.core.automl.search.earns_its_place": earns_log},
+            "log SE + geometric mean": {"thermodrift.core.automl.search.earns_its_place": earns_log,
+                                        **{p: geometric for p in score}},
+            "a-priori only": {"thermodrift.core.automl.search.eligible": prior_only}}
+
+
+def fold_sizes(name: str, args) -> list[int]:
+    """Training rows of each inner fold of ``name`` (as the search forms them)."""
+    spec = bench.spec_of(bench.TASKS[name], args.seed, args.data, args.cache)
+    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
+    return [len(f.train) for f in folds.inner_folds(recording, fold.train, Settings().max_folds)]
+
+
+def replay(saved: dict, sizes: list[int]) -> dict[str, float]:
+    """Held-out RMSE (µm) of the search's final choice under each variant on one task's kept predictions
+    ``saved`` (``bench_automl.py --inner-table`` form), its inner folds training on ``sizes`` rows."""
+    out = {}
+    for label, patches in variants(sizes).items():
+        task = copy.deepcopy(saved)
+        with _patched(patches):
+            for c in task["candidates"]:  # the inner score as the variant computes it
+                c["score"] = folds.aggregate(c["fold_rmse"])
+            out[label] = bench.final_rules(task)["one-SE inverse-MSE weights"][0]
+    return out
+
+
+class _patched:
+    """Several :func:`unittest.mock.patch` at once."""
+
+    def __init__(self, patches: dict):
+        self.patchers = [mock.patch(target, new) for target, new in patches.items()]
+
+    def __enter__(self):
+        for p in self.patchers:
+            p.start()
+
+    def __exit__(self, *exc):
+        for p in reversed(self.patchers):
+            p.stop()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tasks", nargs="*", default=None)
+    parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"))
+    args = parser.parse_args()
+    names = [n for n in (args.tasks or bench.TASKS) if (args.cache / f"{n}-inner-s{args.seed}.pkl").exists()]
+    if not names:
+        sys.exit("no kept inner predictions: run bench_automl.py --inner-table --inner-tpe first")
+    warnings.simplefilter("ignore")
+    rows = {}
+    for n in names:
+        with open(args.cache / f"{n}-inner-s{args.seed}.pkl", "rb") as fh:
+            rows[n] = replay(pickle.load(fh), fold_sizes(n, args))
+    labels = list(next(iter(rows.values())))
+    print("| task | " + " | ".join(labels) + " |")
+    print("|---|" + "---:|" * len(labels))
+    for n, r in rows.items():
+        print(f"| {n} | " + " | ".join(f"{r[v]:.3f}" for v in labels) + " |")
+    machines = set(bench.GROUPS["indep"]) | set(bench.GROUPS["indep_sealed"])
+    groups = {"the issue's tasks": [n for n in names if n not in machines],
+              "independent machines": [n for n in names if n in machines]}
+    for g, members in groups.items():
+        if members:
+            print(f"| geometric mean / the search's rule, {g} ({len(members)}) | " + " | ".join(
+                f"{np.exp(np.mean([np.log(rows[n][v] / rows[n][labels[0]]) for n in members])):.3f}"
+                for v in labels) + " |")
+
+
+if __name__ == "__main__":
+    main()
