@@ -78,9 +78,9 @@ def fail_dead_trials(study: optuna.Study) -> list[int]:
         who = trial.user_attrs.get(OWNER_ATTR)
         if not is_dead(who):
             continue
-        storage.set_trial_user_attr(trial._trial_id, KILLED_ATTR, True)
-        storage.set_trial_user_attr(trial._trial_id, "fail_reason", f"its process {who} died (killed)")
-        try:
+        try:  # several live workers may find the same dead trial: whichever writes first finishes it
+            storage.set_trial_user_attr(trial._trial_id, KILLED_ATTR, True)
+            storage.set_trial_user_attr(trial._trial_id, "fail_reason", f"its process {who} died (killed)")
             if storage.set_trial_state_values(trial._trial_id, optuna.trial.TrialState.FAIL):
                 failed.append(trial.number)
         except optuna.exceptions.UpdateFinishedTrialError:  # another worker failed it first

@@ -81,3 +81,25 @@ def test_resume_after_sigkill_leaves_nothing_running(workdir, resume_trials, cli
     killed_id = [r.info.run_id for r in mlflow.search_runs(experiment_names=["thermodrift"], output_format="list")
                  if r.info.status == "KILLED"][0]
     assert resumed["resumes"] == killed_id
+
+
+def test_two_workers_failing_the_same_dead_trial_do_not_crash():
+    """Live workers each fail a dead worker's RUNNING trial; the one that reads it as RUNNING after the other has
+    finished it (a stale snapshot) moves on instead of raising."""
+    import socket
+
+    import optuna
+
+    from thermodrift.core import resume
+
+    gone = subprocess.Popen(["true"])
+    gone.wait()  # a pid with no process behind it
+    study = optuna.create_study(storage=optuna.storages.RDBStorage("sqlite:///:memory:"))
+    trial = study.ask()
+    trial.set_user_attr(resume.OWNER_ATTR, f"{socket.gethostname()}:{gone.pid}:0")
+    stale = study.get_trials(deepcopy=True)  # what the second worker read before the first acted
+    assert resume.fail_dead_trials(study) == [trial.number]  # the first worker
+    study.get_trials = lambda deepcopy=True, states=None: [t for t in stale if states is None or t.state in states]
+    assert resume.fail_dead_trials(study) == []  # the second: already finished, nothing raised
+    (t,) = optuna.Study(study.study_name, study._storage).get_trials()
+    assert t.state == optuna.trial.TrialState.FAIL and t.user_attrs[resume.KILLED_ATTR] is True
