@@ -231,20 +231,39 @@ def run_task(name: str, conf: dict, args) -> dict:
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
 
 
-def inner_table(name: str, args) -> str:
-    """Why a choice goes wrong: every portfolio candidate (networks aside; with ``--inner-tpe`` also the TPE
-    candidates of the task's default-budget leaderboard) with its inner-fold RMSEs (µm), their (mean + worst) / 2
-    and its held-out RMSE after the refit on the whole training part (µm)."""
+def inner_setup(name: str, args):
+    """Task ``name`` as the search sees it: (recording, outer fold, targets, inner folds, their evaluator)."""
     from thermodrift.core.automl import folds as inner
     from thermodrift.core.automl.evaluate import Evaluator
-    from thermodrift.core.study import predict_rows
 
     spec = spec_of(TASKS[name], args.seed, args.data, args.cache)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
     targets = automl_job.targets_of(recording, spec.targets)
     folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
-    ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
+    return recording, fold, targets, folds, Evaluator(recording, fold.train, targets, folds, spec.seed)
+
+
+def score_candidate(cand, phase: str, recording, fold, targets, ev) -> dict:
+    """One candidate's inner-fold RMSEs and predictions and its held-out prediction after the refit on the whole
+    training part (the form ``--inner-table`` keeps and :func:`final_rules` replays)."""
+    from thermodrift.core.study import predict_rows
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        e = ev.evaluate(cand.params, measure_costs=False)
+        model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
+        pred = predict_rows(model, ev.X, fold.test)
+    return {"label": space.describe(cand.params), "params": cand.params, "phase": phase, "fold_rmse": e.fold_rmse,
+            "score": e.score, "fold_pred": e.predictions, "pred": np.asarray(pred),
+            "held_out": evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]}
+
+
+def inner_table(name: str, args) -> str:
+    """Why a choice goes wrong: every portfolio candidate (networks aside; with ``--inner-tpe`` also the TPE
+    candidates of the task's default-budget leaderboard) with its inner-fold RMSEs (µm), their (mean + worst) / 2
+    and its held-out RMSE after the refit on the whole training part (µm)."""
+    recording, fold, targets, folds, ev = inner_setup(name, args)
     fams = [f for f in space.families() if not f.network]
     saved = {"folds": [f.name for f in folds], "fold_truth": [t.to_numpy() for t in ev.truth],
              "truth": recording.data[targets].iloc[fold.test].to_numpy(), "candidates": []}
@@ -259,17 +278,11 @@ def inner_table(name: str, args) -> str:
         cands += [(space.Candidate(json.loads(r.params)), "tpe") for r in rows.itertuples()
                   if r.phase == "tpe" and r.status == "ok"]
     for cand, phase in cands:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            e = ev.evaluate(cand.params, measure_costs=False)
-            model = ev.pipeline(cand.params).fit(ev.X.iloc[fold.train], ev.y.iloc[fold.train])
-            pred = predict_rows(model, ev.X, fold.test)
-        out = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
-        saved["candidates"].append({"label": space.describe(cand.params), "params": cand.params, "phase": phase,
-                                    "fold_rmse": e.fold_rmse, "score": e.score,
-                                    "fold_pred": e.predictions, "pred": np.asarray(pred)})
-        lines.append(f"| {space.describe(cand.params)} | " + " | ".join(f"{r:.2f}" for r in e.fold_rmse)
-                     + f" | {e.score:.2f} | {out:.2f} |")
+        c = score_candidate(cand, phase, recording, fold, targets, ev)
+        out = c.pop("held_out")
+        saved["candidates"].append(c)
+        lines.append(f"| {c['label']} | " + " | ".join(f"{r:.2f}" for r in c["fold_rmse"])
+                     + f" | {c['score']:.2f} | {out:.2f} |")
         print(lines[-1], flush=True)
     args.cache.mkdir(parents=True, exist_ok=True)
     with open(args.cache / f"{name}-inner-s{args.seed}.pkl", "wb") as fh:  # to compare selection rules offline

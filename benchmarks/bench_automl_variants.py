@@ -4,6 +4,7 @@ of its pieces swapped, on the inner-fold and held-out predictions that
 ``bench_automl.py --inner-table --inner-tpe`` keeps per task.
 
     python benchmarks/bench_automl_variants.py --tasks TASK ...   # default: every task with kept predictions
+    python benchmarks/bench_automl_variants.py --portfolio          # also the two larger portfolios
 
 Variants (the rest of the rule as in :mod:`thermodrift.core.automl.search`):
 
@@ -15,6 +16,15 @@ Variants (the rest of the rule as in :mod:`thermodrift.core.automl.search`):
   per-fold differences of log RMSE instead of µm;
 - ``log SE + geometric mean``: the same, and the inner score the geometric mean of the fold RMSEs;
 - ``a-priori only``: TPE candidates never enter the final choice.
+
+With ``--portfolio``, also two larger portfolios (their extra candidates scored on the inner folds and held out,
+kept in ``<cache>/variants/``; 0.5–3 minutes per task):
+
+- ``penalty path without a feature stage``: every family that takes no feature stage and has a ridge penalty
+  ``alpha`` (``lptn_hybrid``, ``mnr``) also along :data:`~thermodrift.core.automl.space.ALPHA_PATH` on the raw
+  inputs, as the feature-taking families already are;
+- ``medium families' integer ends``: every medium-cost family (never tuned by TPE: ``lptn``, ``lptn_hybrid``) also
+  at each end of each integer parameter of its space (``hidden_nodes`` 0 and 4), one at a time.
 
 Prints the held-out RMSE (µm) per task and the geometric mean of each variant's over the search's rule's per task
 group. A swap patches the library function for the replay only (``unittest.mock``): the search itself is not run.
@@ -37,7 +47,7 @@ sys.path.insert(0, str(HERE))
 import bench_automl as bench  # noqa: E402 - the benchmark next to this script
 
 from thermodrift.core import registry, splits  # noqa: E402
-from thermodrift.core.automl import folds, search  # noqa: E402
+from thermodrift.core.automl import folds, search, space  # noqa: E402
 from thermodrift.core.automl.search import Settings  # noqa: E402
 
 
@@ -110,6 +120,38 @@ def replay(saved: dict, sizes: list[int]) -> dict[str, float]:
     return out
 
 
+def portfolio_variants() -> dict[str, list]:
+    """The extra a-priori candidates of each larger portfolio (see the module docstring)."""
+    def base(f, model_params):
+        return space.Candidate({"model": f.name, "model_params": model_params, "selector": "all",
+                                "selector_params": {}, "features": None}, origin="portfolio")
+
+    def default(f, name):
+        return registry.get("model", f.name).factory().get_params().get(name)
+
+    fams = [f for f in space.families() if not f.network]
+    penalty = [base(f, mp) for f in fams if not f.takes_features and f.space.get("alpha", {}).get("type") == "float"
+               for mp, _ in space._path(f) if mp["alpha"] != default(f, "alpha")]
+    ends = [base(f, {k: v}) for f in fams if f.cost == "medium" for k, spec in f.space.items()
+            if spec.get("type") == "int" for v in (spec["low"], spec["high"]) if v != default(f, k)]
+    return {"penalty path without a feature stage": penalty, "medium families' integer ends": ends}
+
+
+def extra_candidates(name: str, args) -> dict[str, list[dict]]:
+    """Each larger portfolio's extra candidates scored on task ``name`` (kept in ``<cache>/variants/``)."""
+    path = args.cache / "variants" / f"{name}-extra-s{args.seed}.pkl"
+    if path.exists():
+        with open(path, "rb") as fh:
+            return pickle.load(fh)
+    recording, fold, targets, _, ev = bench.inner_setup(name, args)
+    out = {label: [bench.score_candidate(c, "portfolio", recording, fold, targets, ev) for c in cands]
+           for label, cands in portfolio_variants().items()}
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "wb") as fh:
+        pickle.dump(out, fh)
+    return out
+
+
 class _patched:
     """Several :func:`unittest.mock.patch` at once."""
 
@@ -131,6 +173,7 @@ def main() -> None:
     parser.add_argument("--data", default="../shared/data/fl_thermal/data.xlsx", help="the FL_THERMAL workbook")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/automl"))
+    parser.add_argument("--portfolio", action="store_true", help="also the two larger portfolios (slower)")
     args = parser.parse_args()
     names = [n for n in (args.tasks or bench.TASKS) if (args.cache / f"{n}-inner-s{args.seed}.pkl").exists()]
     if not names:
@@ -139,7 +182,12 @@ def main() -> None:
     rows = {}
     for n in names:
         with open(args.cache / f"{n}-inner-s{args.seed}.pkl", "rb") as fh:
-            rows[n] = replay(pickle.load(fh), fold_sizes(n, args))
+            saved = pickle.load(fh)
+        rows[n] = replay(saved, fold_sizes(n, args))
+        if args.portfolio:
+            for label, extra in extra_candidates(n, args).items():
+                rows[n][label] = bench.final_rules({**saved, "candidates": saved["candidates"] + extra})[
+                    "one-SE inverse-MSE weights"][0]
     labels = list(next(iter(rows.values())))
     print("| task | " + " | ".join(labels) + " |")
     print("|---|" + "---:|" * len(labels))

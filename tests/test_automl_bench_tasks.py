@@ -97,3 +97,17 @@ def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
             scores[label] = folds.aggregate([4.0, 1.0, 1.0])
     assert scores["size-weighted mean"] == 1.75 and scores["search's rule"] == 3.0 and scores["mean"] == 2.0
     assert scores["(mean + last) / 2"] == 1.5 and np.isclose(scores["log SE + geometric mean"], 4 ** (1 / 3))
+
+
+def test_larger_portfolios_of_the_variants_replay():
+    spec = importlib.util.spec_from_file_location("bench_automl_variants", BENCH.parent / "bench_automl_variants.py")
+    variants = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(variants)
+    extra = variants.portfolio_variants()
+    penalty = {(c.params["model"], c.params["model_params"]["alpha"])
+               for c in extra["penalty path without a feature stage"]}
+    assert penalty == {("lptn_hybrid", 1.0), ("lptn_hybrid", 100.0), ("mnr", 10.0), ("mnr", 100.0)}  # defaults: 10, 1
+    ends = {(c.params["model"], c.params["model_params"]["hidden_nodes"])
+            for c in extra["medium families' integer ends"]}
+    assert ends == {("lptn", 0), ("lptn", 4), ("lptn_hybrid", 0), ("lptn_hybrid", 4)}  # default 2
+    assert all(c.params["features"] is None and c.params["selector"] == "all" for v in extra.values() for c in v)
