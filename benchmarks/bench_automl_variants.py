@@ -131,7 +131,7 @@ def portfolio_variants() -> dict[str, list]:
 
     fams = [f for f in space.families() if not f.network]
     penalty = [base(f, mp) for f in fams if not f.takes_features and f.space.get("alpha", {}).get("type") == "float"
-               for mp, _ in space._path(f) if mp["alpha"] != default(f, "alpha")]
+               for mp, _ in space.penalty_path(f) if mp["alpha"] != default(f, "alpha")]
     ends = [base(f, {k: v}) for f in fams if f.cost == "medium" for k, spec in f.space.items()
             if spec.get("type") == "int" for v in (spec["low"], spec["high"]) if v != default(f, k)]
     return {"penalty path without a feature stage": penalty, "medium families' integer ends": ends}

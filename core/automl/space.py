@@ -166,21 +166,21 @@ def portfolio(fams: list[Family], sels: dict[str, dict]) -> list[Candidate]:
         out += [Candidate(_base(f.name), origin="portfolio", label="untuned, all sensors") for f in same]
         for f in same:
             if f.takes_features and not f.network:  # networks get features through TPE, if they make its list
-                for bank, (mp, label) in ((b, m) for b in FILTER_BANKS for m in _path(f)):
+                for bank, (mp, label) in ((b, m) for b in FILTER_BANKS for m in penalty_path(f)):
                     out.append(Candidate({**_base(f.name), "model_params": mp, "features": dict(bank)},
                                          origin="portfolio",
                                          label=f"filtered features ({bank['taus_s'][0]:g} s…){label}"))
     if "correlation_top_k" in sels:
         for f in ranked:
             if f.takes_features and f.cost == "cheap":
-                mp, label = _path(f)[0]
+                mp, label = penalty_path(f)[0]
                 out.append(Candidate({**_base(f.name), "model_params": mp, "selector": "correlation_top_k",
                                       "selector_params": {"k": 6}, "features": dict(DEFAULT_FEATURES)},
                                      origin="portfolio", label=f"6 sensors, filtered features{label}"))
     return out
 
 
-def _path(family: Family) -> list[tuple[dict, str]]:
+def penalty_path(family: Family) -> list[tuple[dict, str]]:
     """(model parameters, label) along :data:`ALPHA_PATH` for a family with an ``alpha`` penalty in its space
     (clipped into its bounds, duplicates dropped), else its defaults alone."""
     spec = family.space.get("alpha")
