@@ -3,6 +3,7 @@ input, the pipeline and ensemble models (streaming, storing), and the verb end t
 
 from __future__ import annotations
 
+import json
 
 import mlflow
 import numpy as np
@@ -36,6 +37,13 @@ def test_same_seed_and_budget_give_the_same_leaderboard():
     assert len(boards[0]) >= 5 and (boards[0]["status"] == "ok").all()
     assert {"fold1_rmse", "inner_score", "fit_s", "latency_batch_ms", "latency_stream_ms", "n_parameters"} \
         <= set(boards[0].columns)
+    # a row's settings name what sets it apart: a portfolio row on the penalty path shows its alpha, a default row none
+    rows = boards[0].set_index("trial")
+    for trial, r in rows[rows["model"] != "ensemble"].iterrows():
+        params = json.loads(r["params"])["model_params"]
+        assert r["settings"] == ", ".join(f"{k}={v:.3g}" if isinstance(v, float) else f"{k}={v}"
+                                          for k, v in params.items() if k != "trainer")
+    assert (rows["settings"] == "").any() and rows["settings"].str.startswith("alpha=").any()
 
 
 def test_every_registered_model_takes_part_and_a_plugin_appears_in_the_leaderboard():

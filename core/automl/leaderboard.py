@@ -2,7 +2,7 @@
 greedy ensemble, its ``kind`` in ``params``), as CSV and Markdown.
 
 Columns: ``rank`` (by ``inner_score``; failed rows last), ``trial``, ``model`` (the registry name of the inner
-model, or ``ensemble``), ``selector``, ``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe,
+model, or ``ensemble``), ``settings`` (the model's settings, short; empty: its defaults), ``selector``, ``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe,
 rung<k>, ensemble), ``status`` (ok, failed), ``inner_score`` ((mean + worst) / 2 of the fold RMSEs, µm),
 ``fold<k>_rmse`` (µm, mean over targets), ``rmse <target>`` (µm, mean over folds), ``fit_s`` (s, all folds),
 ``latency_batch_ms`` and ``latency_stream_ms`` (ms per row), ``n_parameters``, ``params`` (the pipeline's
@@ -27,7 +27,7 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
     rows = []
     for e in entries:
         p = e.candidate.params
-        row = {"trial": e.number, "model": p["model"],
+        row = {"trial": e.number, "model": p["model"], "settings": space.settings(p),
                "selector": space.describe(p).split(" · ")[1], "features": space.describe(p).split(" · ")[2],
                "rung": e.candidate.rung, "phase": e.phase, "status": "ok" if e.evaluation is not None else "failed",
                "inner_score": e.score if e.evaluation is not None else np.nan}
@@ -44,7 +44,7 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
                     "params": json.dumps(p, sort_keys=True, default=str), "error": e.error})
         rows.append(row)
     if ensemble is not None:
-        row = {"trial": -1, "model": "ensemble", "selector": "", "features": "",
+        row = {"trial": -1, "model": "ensemble", "settings": "", "selector": "", "features": "",
                "rung": 0, "phase": "ensemble", "status": "ok", "inner_score": ensemble["score"],
                **{f"fold{k + 1}_rmse": v for k, v in enumerate(ensemble["fold_rmse"])},
                "params": json.dumps({"members": ensemble["numbers"], "weights": ensemble["weights"],

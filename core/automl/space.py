@@ -216,9 +216,15 @@ def describe(params: dict) -> str:
     feats = params.get("features")
     feat = "raw" if not feats else \
         f"filtered({','.join(f'{t:g}' for t in feats['taus_s'])} s; p≤{max(feats['powers']):g})"
+    mp = settings(params)
+    return f"{params['model']}({mp}) · {sel} · {feat}" if mp else f"{params['model']} · {sel} · {feat}"
+
+
+def settings(params: dict) -> str:
+    """The model's settings in a candidate's parameters, short (``alpha=0.01, n_taus=3``; empty: its defaults;
+    a network's trainer settings left out)."""
     mp = {k: v for k, v in (params.get("model_params") or {}).items() if k != "trainer"}
-    model = f"{params['model']}({', '.join(f'{k}={_fmt(v)}' for k, v in mp.items())})" if mp else params["model"]
-    return f"{model} · {sel} · {feat}"
+    return ", ".join(f"{k}={_fmt(v)}" for k, v in mp.items())
 
 
 def _fmt(v: Any) -> str:

@@ -156,7 +156,7 @@ def report(result, run, uri: str) -> str:
 
     job = result.job
     board = result.leaderboard
-    show = board[["rank", "model", "selector", "features", "status", "inner_score"]
+    show = board[["rank", "model", "settings", "selector", "features", "status", "inner_score"]
                  + [c for c in board.columns if c.startswith("fold")]].head(10)
     table = tracking.comparison(job)[["rmse", "mae", "max_abs_error", "r2"]]
     for target in job.targets:
