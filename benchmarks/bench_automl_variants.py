@@ -1,5 +1,5 @@
 """Final-choice variants of ``thermodrift automl`` replayed offline, each written down before its replay (see
-``docs/automl_benchmark.md``, "Three more rules, written down before their replay"): the search's rule with one
+``docs/automl_benchmark.md``, "Six more rules and two larger portfolios"): the search's rule with one
 of its pieces swapped, on the inner-fold and held-out predictions that
 ``bench_automl.py --inner-table --inner-tpe`` keeps per task.
 
