@@ -231,17 +231,23 @@ def run_task(name: str, conf: dict, args) -> dict:
     return {"task": name, "automl": runs, "default_budget": conf["default"], "hindsight": best, "flaml": flaml}
 
 
-def inner_setup(name: str, args):
-    """Task ``name`` as the search sees it: (recording, outer fold, targets, inner folds, their evaluator)."""
+def task_folds(name: str, args):
+    """Task ``name`` as the search splits it: (recording, outer fold, targets, inner folds)."""
     from thermodrift.core.automl import folds as inner
-    from thermodrift.core.automl.evaluate import Evaluator
 
     spec = spec_of(TASKS[name], args.seed, args.data, args.cache)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
     targets = automl_job.targets_of(recording, spec.targets)
-    folds = inner.inner_folds(recording, fold.train, Settings().max_folds)
-    return recording, fold, targets, folds, Evaluator(recording, fold.train, targets, folds, spec.seed)
+    return recording, fold, targets, inner.inner_folds(recording, fold.train, Settings().max_folds)
+
+
+def inner_setup(name: str, args):
+    """Task ``name`` as the search sees it: :func:`task_folds` and the inner folds' evaluator."""
+    from thermodrift.core.automl.evaluate import Evaluator
+
+    recording, fold, targets, folds = task_folds(name, args)
+    return recording, fold, targets, folds, Evaluator(recording, fold.train, targets, folds, args.seed)
 
 
 def score_candidate(cand, phase: str, recording, fold, targets, ev) -> dict:

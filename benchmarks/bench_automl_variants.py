@@ -33,7 +33,7 @@ group. A swap patches the library function for the replay only (``unittest.mock`
 from __future__ import annotations
 
 import argparse
-import copy
+import contextlib
 import pickle
 import sys
 import warnings
@@ -46,9 +46,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 import bench_automl as bench  # noqa: E402 - the benchmark next to this script
 
-from thermodrift.core import registry, splits  # noqa: E402
+from thermodrift.core import registry  # noqa: E402
 from thermodrift.core.automl import folds, search, space  # noqa: E402
-from thermodrift.core.automl.search import Settings  # noqa: E402
 
 
 def _finite(r) -> np.ndarray | None:
@@ -101,10 +100,7 @@ def variants(sizes: list[int]) -> dict[str, dict]:
 
 def fold_sizes(name: str, args) -> list[int]:
     """Training rows of each inner fold of ``name`` (as the search forms them)."""
-    spec = bench.spec_of(bench.TASKS[name], args.seed, args.data, args.cache)
-    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
-    (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
-    return [len(f.train) for f in folds.inner_folds(recording, fold.train, Settings().max_folds)]
+    return [len(f.train) for f in bench.task_folds(name, args)[3]]
 
 
 def replay(saved: dict, sizes: list[int]) -> dict[str, float]:
@@ -112,10 +108,9 @@ def replay(saved: dict, sizes: list[int]) -> dict[str, float]:
     ``saved`` (``bench_automl.py --inner-table`` form), its inner folds training on ``sizes`` rows."""
     out = {}
     for label, patches in variants(sizes).items():
-        task = copy.deepcopy(saved)
-        with _patched(patches):
-            for c in task["candidates"]:  # the inner score as the variant computes it
-                c["score"] = folds.aggregate(c["fold_rmse"])
+        with _patched(patches):  # the inner score as the variant computes it
+            task = {**saved, "candidates": [{**c, "score": folds.aggregate(c["fold_rmse"])}
+                                            for c in saved["candidates"]]}
             out[label] = bench.final_rules(task)["one-SE inverse-MSE weights"][0]
     return out
 
@@ -152,19 +147,13 @@ def extra_candidates(name: str, args) -> dict[str, list[dict]]:
     return out
 
 
-class _patched:
-    """Several :func:`unittest.mock.patch` at once."""
-
-    def __init__(self, patches: dict):
-        self.patchers = [mock.patch(target, new) for target, new in patches.items()]
-
-    def __enter__(self):
-        for p in self.patchers:
-            p.start()
-
-    def __exit__(self, *exc):
-        for p in reversed(self.patchers):
-            p.stop()
+@contextlib.contextmanager
+def _patched(patches: dict):
+    """Several :func:`unittest.mock.patch` at once (target → replacement)."""
+    with contextlib.ExitStack() as stack:
+        for target, new in patches.items():
+            stack.enter_context(mock.patch(target, new))
+        yield
 
 
 def main() -> None:

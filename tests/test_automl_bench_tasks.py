@@ -12,11 +12,15 @@ from thermodrift.core.automl import folds as inner
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_automl.py"
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("bench_automl", BENCH)
+def _bench(path=BENCH):
+    spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def _variants():
+    return _bench(BENCH.parent / "bench_automl_variants.py")
 
 
 def test_independent_task_holds_out_the_last_condition_long_enough_to_score(tmp_path):
@@ -76,9 +80,7 @@ def test_final_rules_replay_the_search_rules():
 
 
 def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
-    spec = importlib.util.spec_from_file_location("bench_automl_variants", BENCH.parent / "bench_automl_variants.py")
-    variants = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(variants)
+    variants = _variants()
     from thermodrift.core.automl import folds, search
     aggregate, earns = folds.aggregate, search.earns_its_place
     a = _cand("portfolio", [1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 2.0)    # best a-priori
@@ -100,9 +102,7 @@ def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
 
 
 def test_larger_portfolios_of_the_variants_replay():
-    spec = importlib.util.spec_from_file_location("bench_automl_variants", BENCH.parent / "bench_automl_variants.py")
-    variants = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(variants)
+    variants = _variants()
     extra = variants.portfolio_variants()
     penalty = {(c.params["model"], c.params["model_params"]["alpha"])
                for c in extra["penalty path without a feature stage"]}
