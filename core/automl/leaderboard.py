@@ -2,12 +2,12 @@
 greedy ensemble, its ``kind`` in ``params``), as CSV and Markdown.
 
 Columns: ``rank`` (by ``inner_score``; failed rows last), ``trial``, ``model`` (the registry name of the inner
-model, or ``ensemble``), ``settings`` (the model's settings, short; empty: its defaults), ``selector``, ``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe,
-rung<k>, ensemble), ``status`` (ok, failed), ``inner_score`` ((mean + worst) / 2 of the fold RMSEs, µm),
-``fold<k>_rmse`` (µm, mean over targets), ``rmse <target>`` (µm, mean over folds), ``fit_s`` (s, all folds),
-``latency_batch_ms`` and ``latency_stream_ms`` (ms per row), ``n_parameters``, ``params`` (the pipeline's
-parameters as JSON), ``error``. Timing columns depend on the machine; every other column is deterministic for a
-seed and budget.
+model, or ``ensemble``), ``settings`` (the model's settings, short; empty: its defaults), ``selector``,
+``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe, rung<k>, ensemble), ``status`` (ok,
+failed), ``inner_score`` ((mean + worst) / 2 of the fold RMSEs, µm), ``fold<k>_rmse`` (µm, mean over targets),
+``rmse <target>`` (µm, mean over folds), ``fit_s`` (s, all folds), ``latency_batch_ms`` and ``latency_stream_ms``
+(ms per row), ``n_parameters``, ``params`` (the pipeline's parameters as JSON), ``error``. Timing columns depend on
+the machine; every other column is deterministic for a seed and budget.
 """
 
 from __future__ import annotations
@@ -27,8 +27,9 @@ def table(entries, folds, targets: list[str], ensemble: dict | None = None) -> p
     rows = []
     for e in entries:
         p = e.candidate.params
-        row = {"trial": e.number, "model": p["model"], "settings": space.settings(p),
-               "selector": space.describe(p).split(" · ")[1], "features": space.describe(p).split(" · ")[2],
+        _, selector, features = space.describe(p).split(" · ")
+        row = {"trial": e.number, "model": p["model"], "settings": space.settings(p), "selector": selector,
+               "features": features,
                "rung": e.candidate.rung, "phase": e.phase, "status": "ok" if e.evaluation is not None else "failed",
                "inner_score": e.score if e.evaluation is not None else np.nan}
         ev = e.evaluation
