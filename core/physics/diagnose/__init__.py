@@ -262,7 +262,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
-        ok = [rule.passes(f, j, d, decisive, level) for f, j, d in zip(fitted, judged, discovered)]
+        ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
@@ -290,12 +290,11 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
         test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
-        if not jw.three_lines(dw) and jw.classical(dw, level):  # the adequate augmented model's route (:mod:`.rule`)
+        if not jw.three_lines(dw) and jw.classical(dw):  # the adequate augmented model's route (:mod:`.rule`)
             test = {**test, "test": f"{test['test']}, the augmented model adequate (error within "
                                     f"{adequacy.STRUCTURAL_RATIO:g} noise σ on the judged channels, fitted and "
-                                    "held out), its held-out gain significant under white noise",
-                    "adequate": {"misfit_over_noise": jw.fit_ratio, "heldout_over_noise": jw.val_ratio,
-                                 "held_out_z": jw.held_out_z()}}
+                                    "held out)", "adequate": {"misfit_over_noise": jw.fit_ratio,
+                                                              "heldout_over_noise": jw.val_ratio}}
         elif not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
             test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
                                     "the condition blocks, Bonferroni over the fitted candidates at the round's "

@@ -26,8 +26,7 @@ On the judged channels (:func:`judge`):
 A candidate passes with all three lines of evidence (test, blocks, held out) and the guard; or, when its
 augmented model is adequate on the judged channels (its error within :data:`.adequacy.STRUCTURAL_RATIO` noise σ on
 every judged channel, on the fitted rows and on the held-out block alike: no structural misfit left for the
-white-noise assumption to miss), with the test, a held-out gain significant under white noise (:meth:`Judged.held_out_z`)
-and the guard, the classical
+white-noise assumption to miss), with the test, a positive held-out gain and the guard, the classical
 likelihood-ratio route that the blocks and the spread of the held-out error stand in for when misfit is
 structural; or with the blocks and the guard when the held-out gain is decisive: in standard errors of the block spread, read as a t statistic
 over the condition blocks, significant at the round's level over the fitted candidates (Bonferroni,
@@ -76,7 +75,6 @@ class Judged:
     blocks: int = 0       # condition blocks of the cross-validation
     fit_ratio: float = np.inf  # the augmented model's RMS error over noise σ on the fitted rows (worst judged channel)
     val_ratio: float = np.inf  # the same on the held-out block, fitted without it
-    val_dsq: float = 0.0  # sum of the squared difference of the two models' predictions there (judged, noise units)
 
     def held_out_t(self) -> float:
         """The held-out gain per sample over the standard error of the block spread."""
@@ -106,16 +104,9 @@ class Judged:
         and held out."""
         return self.fit_ratio <= STRUCTURAL_RATIO and self.val_ratio <= STRUCTURAL_RATIO
 
-    def held_out_z(self) -> float:
-        """The held-out gain over its standard deviation when the errors are white noise of unit variance: with d
-        the difference of the two models' predictions, the gain Σ(e0² − e1²) has mean ±Σd² (+ when the candidate is
-        right, − when the baseline is) and standard deviation 2√Σd² (a Diebold–Mariano test under white errors)."""
-        return self.val_gain / (2.0 * np.sqrt(self.val_dsq)) if self.val_dsq > 0 else 0.0
-
-    def classical(self, discovered: bool, level: float) -> bool:
-        """The likelihood-ratio route of an adequate augmented model: the test and a held-out gain significant at
-        ``level`` (one-sided) under white noise."""
-        return discovered and self.adequate() and self.held_out_z() > float(stats.norm.isf(level))
+    def classical(self, discovered: bool) -> bool:
+        """The likelihood-ratio route of an adequate augmented model: the test and a positive held-out gain."""
+        return discovered and self.adequate() and self.val_gain > 0
 
     def guarded(self) -> bool:
         slack = max(GUARD_SHARE * self.guard_base, GUARD_Z * self.guard_spread * max(self.n_val, 1))
@@ -129,8 +120,7 @@ class Judged:
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
                 "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p(),
-                "augmented_misfit_over_noise": self.fit_ratio, "augmented_heldout_over_noise": self.val_ratio,
-                "held_out_z": self.held_out_z()}
+                "augmented_misfit_over_noise": self.fit_ratio, "augmented_heldout_over_noise": self.val_ratio}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -181,16 +171,15 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
                   spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
                   len(val_rows), judged, len(per_block), float(np.sqrt(fit_ms[judged].max())),
-                  float(np.sqrt(max(val_ms[judged].max(), 0.0))), float(f.val_dsq[judged].sum()))
+                  float(np.sqrt(max(val_ms[judged].max(), 0.0))))
 
 
-def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0, level: float = 0.0) -> bool:
-    """The module docstring's rule, given the Benjamini–Hochberg decision ``discovered``, the level at which a
-    held-out gain is decisive (the round's level over the number of fitted candidates; 0: never) and the round's
-    level for the held-out test of an adequate augmented model (0: that route closed)."""
+def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
+    """The module docstring's rule, given the Benjamini–Hochberg decision ``discovered`` and the level at which a
+    held-out gain is decisive (the round's level over the number of fitted candidates; 0: never)."""
     if not (j.statistic > 0 and not f.outside and j.guarded()):
         return False
-    if j.three_lines(discovered) or (level > 0 and j.classical(discovered, level)):
+    if j.three_lines(discovered) or j.classical(discovered):
         return True
     return j.held_out_p() < decisive_level and j.consistent()
 

@@ -90,7 +90,6 @@ class Fitted:
     block_drop: Any = None  # (blocks, channels): the same per condition block
     val_drop: Any = None   # per channel: drop of the noise-weighted sum of squares on the inner validation block
     val_base: Any = None   # per channel: the baseline's noise-weighted sum of squares there
-    val_dsq: Any = None    # per channel: the sum of the squared difference of the two models' predictions there
 
 
 def _declared(cand: Candidate, base: Network,
@@ -172,7 +171,6 @@ def fit(cand: Candidate, base: Network, fit_recording, scenario, channels: list[
         drop = d0.sum(axis=0) - d1.sum(axis=0)
         fitted.val_bal = float(drop @ weights)
         fitted.val_drop, fitted.val_base = drop, d0.sum(axis=0)
-        fitted.val_dsq = ((((inner.readings - validation.base_readings) / sigma)[validation.rows]) ** 2).sum(axis=0)
         if displacement is not None:
             fitted.val_disp, fitted.val_disp0 = float(drop[displacement].sum()), float(d0[:, displacement].sum())
             fitted.val_disp_n = int(d0[:, displacement].size)
