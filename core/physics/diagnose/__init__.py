@@ -249,7 +249,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows, base.readings)
+        judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
                   for f in fitted]
         for f, j in zip(fitted, judged):
             f.spread = j.spread
@@ -290,13 +290,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
         test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
-        if not jw.three_lines(dw) and jw.classical(dw):  # the adequate augmented model's route (:mod:`.rule`)
-            test = {**test, "test": f"{test['test']}, the augmented model adequate (error within "
-                                    f"{adequacy.STRUCTURAL_RATIO:g} noise σ on the judged channels, fitted and "
-                                    "held out, where the baseline's was not)", "adequate": {"misfit_over_noise": jw.fit_ratio,
-                                                              "heldout_over_noise": jw.val_ratio,
-                                                              "baseline_misfit_over_noise": jw.base_ratio}}
-        elif not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
+        if not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
             test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
                                     "the condition blocks, Bonferroni over the fitted candidates at the round's "
                                     f"level, with the condition blocks consistent; judged on the {jw.group} channels",

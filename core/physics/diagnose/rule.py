@@ -23,13 +23,8 @@ On the judged channels (:func:`judge`):
 * guard    the other channels on that block are not worse than :data:`GUARD_SHARE` of the baseline's error
            there or :data:`GUARD_Z` standard errors of their own block-to-block spread.
 
-A candidate passes with all three lines of evidence (test, blocks, held out) and the guard; or, when its
-baseline misses by more than :data:`.adequacy.STRUCTURAL_RATIO` noise σ on a judged channel and the augmented
-model is adequate there (its error within that ratio on every judged channel, on the fitted rows and on the
-held-out block alike: the candidate accounts for the misfit beyond noise, and none is left for the white-noise
-assumption to miss), with the test, a positive held-out gain and the guard, the classical
-likelihood-ratio route that the blocks and the spread of the held-out error stand in for when misfit is
-structural; or with the blocks and the guard when the held-out gain is decisive: in standard errors of the block spread, read as a t statistic
+A candidate passes with all three lines of evidence (test, blocks, held out) and the guard, or with the blocks
+and the guard when the held-out gain is decisive: in standard errors of the block spread, read as a t statistic
 over the condition blocks, significant at the round's level over the fitted candidates (Bonferroni,
 :func:`passes`). The whitening removes a slow mechanism's signature from the likelihood ratio (a slow structural
 mode whose fit predicts the unseen block nine-tenths better fails it); the held-out block and the blocks then
@@ -45,7 +40,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from thermodrift.core.physics.diagnose.adequacy import STRUCTURAL_RATIO
 from thermodrift.core.physics.diagnose.screening import cv_of
 
 SPREAD_Z = 1.0     # held-out gain per sample over this many standard errors of the block-to-block spread
@@ -74,9 +68,6 @@ class Judged:
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
-    fit_ratio: float = np.inf  # the augmented model's RMS error over noise σ on the fitted rows (worst judged channel)
-    val_ratio: float = np.inf  # the same on the held-out block, fitted without it
-    base_ratio: float = 0.0    # the baseline's RMS error over noise σ on the fitted rows (worst judged channel)
 
     def held_out_t(self) -> float:
         """The held-out gain per sample over the standard error of the block spread."""
@@ -101,16 +92,6 @@ class Judged:
     def held_out(self) -> bool:
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
 
-    def adequate(self) -> bool:
-        """The augmented model's error is within :data:`STRUCTURAL_RATIO` noise σ on every judged channel, fitted
-        and held out."""
-        return self.fit_ratio <= STRUCTURAL_RATIO and self.val_ratio <= STRUCTURAL_RATIO
-
-    def classical(self, discovered: bool) -> bool:
-        """The likelihood-ratio route of a candidate that turns a baseline missing by more than the noise into an
-        adequate model: the test and a positive held-out gain."""
-        return discovered and self.base_ratio > STRUCTURAL_RATIO and self.adequate() and self.val_gain > 0
-
     def guarded(self) -> bool:
         slack = max(GUARD_SHARE * self.guard_base, GUARD_Z * self.guard_spread * max(self.n_val, 1))
         return not self.guard_gain < -slack
@@ -122,9 +103,7 @@ class Judged:
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
-                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p(),
-                "augmented_misfit_over_noise": self.fit_ratio, "augmented_heldout_over_noise": self.val_ratio,
-                "baseline_misfit_over_noise": self.base_ratio}
+                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p()}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -149,7 +128,7 @@ def judged_channels(response: np.ndarray, displacement: np.ndarray) -> np.ndarra
 
 
 def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
-          rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray, base_readings: np.ndarray | None = None) -> Judged:
+          rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> Judged:
     """The statistics of fitted candidate ``f`` (:class:`.selection.Fitted`) on its judged channels: the drift
     channels (``displacement``, bool per channel) when its response reaches them, else the temperature channels
     its response changes (a lagged sensor's own). ``group_is_drift`` marks the screening's amplitude groups that
@@ -164,10 +143,6 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     mean = float(np.mean(per_block)) if len(per_block) else 0.0
     cv_t = mean / (sd / float(np.sqrt(len(per_block)))) if sd > 0 else (np.inf if mean > 0 else 0.0)
     stat = float(f.drop[judged].sum())
-    fit_ms = ((((measured - f.readings) / sigma)[rows]) ** 2).mean(axis=0)
-    base_ms = ((((measured - base_readings) / sigma)[rows]) ** 2).mean(axis=0) if base_readings is not None else \
-        np.zeros_like(fit_ms)
-    val_ms = (f.val_base - f.val_drop) / max(len(val_rows), 1)
 
     def spread(mask):
         return block_spread(measured, f.readings, sigma, mask.astype(float), rows, blocks, val_rows) if mask.any() \
@@ -176,8 +151,7 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
                   spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
-                  len(val_rows), judged, len(per_block), float(np.sqrt(fit_ms[judged].max())),
-                  float(np.sqrt(max(val_ms[judged].max(), 0.0))), float(np.sqrt(base_ms[judged].max())))
+                  len(val_rows), judged, len(per_block))
 
 
 def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
@@ -185,7 +159,7 @@ def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
     held-out gain is decisive (the round's level over the number of fitted candidates; 0: never)."""
     if not (j.statistic > 0 and not f.outside and j.guarded()):
         return False
-    if j.three_lines(discovered) or j.classical(discovered):
+    if j.three_lines(discovered):
         return True
     return j.held_out_p() < decisive_level and j.consistent()
 
