@@ -53,6 +53,15 @@ def test_indep_group_names_every_independent_task():
     assert all(bench.TASKS[n]["case_seed"] >= 1000 for n in sealed)  # the sealed half of the generators' seeds
     assert {bench.TASKS[n]["generator"] for n in sealed} == {"fd", "lumped"}
     assert sum(bench.TASKS[n]["hidden"] is None for n in sealed) == 8  # four nulls per generator
+    second = bench.GROUPS["indep_sealed2"]
+    assert len(second) == len(sealed) and not set(second) & (set(sealed) | set(bench.GROUPS["indep"]))
+    assert all(bench.TASKS[n]["case_seed"] >= 10000 for n in second)
+    assert sum(bench.TASKS[n]["hidden"] is None for n in second) == 8
+    # between the two sealed sets each generator meets eight planted mechanisms, no mechanism twice on one
+    for g in ("fd", "lumped"):
+        planted = [bench.TASKS[n]["hidden"] for n in sealed + second
+                   if bench.TASKS[n]["generator"] == g and bench.TASKS[n]["hidden"]]
+        assert len(planted) == 8 and len(set(planted)) == 8
 
 
 def _cand(phase, fold_rmse, fold_pred, pred, model="mlr", features=None):
