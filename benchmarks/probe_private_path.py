@@ -42,8 +42,9 @@ ACTIVE = 0.01  # a block is active when the lagged driver's variance there is at
 
 
 def lagged(u: np.ndarray, dt_s: float, tau_h: float) -> np.ndarray:
-    """``u`` through a first-order lag of time constant ``tau_h`` (h), sampled every ``dt_s`` (s), from rest at
-    its first value (exact for an input held over each step)."""
+    """``u`` through a first-order lag of time constant ``tau_h`` (h), sampled every ``dt_s`` (s), starting settled
+    at its first value (exact when each value is held over the interval that ends at its sample, as an averaging
+    logger writes it)."""
     a = float(np.exp(-dt_s / (tau_h * 3600.0)))
     out = np.empty(len(u))
     s = float(u[0])
