@@ -4,8 +4,9 @@ The finder's candidates respond through the baseline's own structure (heat into 
 the sensitivities it fitted). On a machine that is not ours that structure is wrong, and a candidate's amplitude
 fitted on some condition blocks does not transfer to the others (``docs/diagnose_benchmark.md``). This probe asks
 whether a response free of that structure would do better: the baseline's drift residual on the fitted rows is
-regressed on a driver channel passed through a first-order lag of its own (time constant τ, gain and offset
-solved by least squares), and reported three ways, per τ:
+regressed on a driver channel passed through a first-order lag of its own (the sensor model's
+:func:`~thermodrift.core.physics.sensors.first_order_lag`, time constant τ; gain and offset solved by least
+squares), and reported three ways, per τ:
 
 * blocks   each condition block of the fitted rows left out in turn, the drop of its (block-centred) squared
            residual; the share of blocks improved and the t statistic of the drops (the finder's blocks line);
@@ -41,19 +42,6 @@ TAUS_H = (0.05, 0.25, 1.0, 4.0)
 ACTIVE = 0.01  # a block is active when the lagged driver's variance there is at least this share of the largest
 
 
-def lagged(u: np.ndarray, dt_s: float, tau_h: float) -> np.ndarray:
-    """``u`` through a first-order lag of time constant ``tau_h`` (h), sampled every ``dt_s`` (s), starting settled
-    at its first value (exact when each value is held over the interval that ends at its sample, as an averaging
-    logger writes it)."""
-    a = float(np.exp(-dt_s / (tau_h * 3600.0)))
-    out = np.empty(len(u))
-    s = float(u[0])
-    for k, v in enumerate(u):
-        s = a * s + (1.0 - a) * float(v)
-        out[k] = s
-    return out
-
-
 def _t(x: np.ndarray) -> float:
     sd = float(np.std(x, ddof=1)) if len(x) > 1 else 0.0
     return float(np.mean(x)) / (sd / np.sqrt(len(x))) if sd > 0 else float("nan")
@@ -86,6 +74,7 @@ def probe(generator: str, hidden: str | None, seed: int, driver: str, folder: Pa
     """Rows of :func:`path_gain` per drift channel and τ for one development case."""
     from thermodrift.core.physics.diagnose import diagnose
     from thermodrift.core.physics.diagnose.windows import condition_blocks
+    from thermodrift.core.physics.sensors import first_order_lag
     from thermodrift.core.recording import load_recording
 
     constant = {s_: c for s_, _, c in independent.case_list(False, 3, 20)}.get(seed, False)  # as the benchmark
@@ -100,7 +89,6 @@ def probe(generator: str, hidden: str | None, seed: int, driver: str, folder: Pa
     blocks = condition_blocks(rec, rows)
     final = np.flatnonzero(~d.fit_rows)
     u = rec.data[column].to_numpy(dtype=float)
-    dt = float(np.median(np.diff(d.time_s)))
     out = []
     for j, (ch, kind) in enumerate(zip(d.channels, d.kinds)):
         if kind != "displacement":
@@ -108,7 +96,7 @@ def probe(generator: str, hidden: str | None, seed: int, driver: str, folder: Pa
         residual = d.measured[:, j] - d.baseline[:, j]
         for tau in TAUS_H:
             out.append({"case": gen.name, "channel": ch, "tau_h": tau,
-                        **path_gain(residual, lagged(u - u[0], dt, tau), rows, blocks, final)})
+                        **path_gain(residual, first_order_lag(u - u[0], d.time_s, tau * 3600.0), rows, blocks, final)})
     return out
 
 
