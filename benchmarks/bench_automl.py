@@ -90,25 +90,35 @@ INDEPENDENT = [("fd", 0, "ambient_coupling", False), ("fd", 1, "coolant_coupling
                ("fd", 4, "bearing_heat_law", False), ("fd", 5, "preload_feedback", False), ("fd", 504, None, False),
                ("fd", 505, None, True), ("lumped", 6, "sensor_lag", False), ("lumped", 7, "centrifugal_growth", False),
                ("lumped", 506, None, False), ("lumped", 507, None, True)]
+
+
+def _sealed_range(base: int) -> tuple[list, list]:
+    """(planted, nulls) of the generators' sealed range from ``base``: one case per mechanism and eight nulls."""
+    cases = independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=base)
+    return [c for c in cases if c[1]], [c for c in cases if not c[1]]
+
+
+def _task_name(generator: str, seed: int, hidden: str | None) -> str:
+    return f"{generator}_{hidden or 'null'}_{seed}"
+
+
 # a sealed set of the same shape, fixed before it was first run and run once with the final rule of the change that
 # added it: the sealed range from 8000 (independent.case_list), fd the first four mechanisms and four nulls, lumped
 # the next four and four nulls
-_cases = independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=8000)
-_planted, _nulls = [c for c in _cases if c[1]], [c for c in _cases if not c[1]]
+_planted, _nulls = _sealed_range(8000)
 SEALED = [("fd", *c) for c in _planted[:4] + _nulls[:4]] + [("lumped", *c) for c in _planted[4:8] + _nulls[4:]]
 # a second one, fixed the same way before it was first run (a measurement of the search as it stood, nothing
 # chosen on it): the range from 10000, fd the mechanisms lumped had above, lumped the other three and the first
-_cases = independent.case_list(sealed=True, per_mechanism=1, nulls=8, base=10000)
-_planted, _nulls = [c for c in _cases if c[1]], [c for c in _cases if not c[1]]
+_planted, _nulls = _sealed_range(10000)
 SEALED2 = [("fd", *c) for c in _planted[4:8] + _nulls[:4]] + [("lumped", *c) for c in _planted[8:11] + _planted[:1]
                                                                 + _nulls[4:]]
-TASKS.update({f"{g}_{h or 'null'}_{s}": {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
-                                         "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
+TASKS.update({_task_name(g, s, h): {"generator": g, "case_seed": s, "hidden": h, "constant_drivers": c,
+                                     "dataset": "recording_file", "targets": None, "split": "condition_holdout"}
               for g, s, h, c in INDEPENDENT + SEALED + SEALED2})
 _machines = [n for n, t in TASKS.items() if "generator" in t]
 GROUPS = {"indep": [n for n in _machines if TASKS[n]["case_seed"] < independent.SEALED_FROM],
-          "indep_sealed": [f"{g}_{h or 'null'}_{s}" for g, s, h, _ in SEALED],
-          "indep_sealed2": [f"{g}_{h or 'null'}_{s}" for g, s, h, _ in SEALED2]}
+          "indep_sealed": [_task_name(g, s, h) for g, s, h, _ in SEALED],
+          "indep_sealed2": [_task_name(g, s, h) for g, s, h, _ in SEALED2]}
 GROUPS["indep_first"], GROUPS["indep_second"] = GROUPS["indep"][:8], GROUPS["indep"][8:]
 QUICK = {"tasks": ["demo_spindle", "motorized_spindle_s3"], "budgets": [12, 24, 48], "default": 48,
          "families": ["mlr", "mnr", "transfer_function", "bp"], "tpe": 0}
