@@ -50,28 +50,20 @@ from thermodrift.core import registry  # noqa: E402
 from thermodrift.core.automl import folds, search, space  # noqa: E402
 
 
-def _finite(r) -> np.ndarray | None:
-    r = np.asarray(r, dtype=float)
-    return r if len(r) and np.isfinite(r).all() else None
+def _on_finite(f):
+    """An inner score from ``f`` of the fold RMSEs, infinite when a fold is not finite (as :func:`folds.aggregate`)."""
+    def score(r):
+        r = np.asarray(r, dtype=float)
+        return float(f(r)) if len(r) and np.isfinite(r).all() else float("inf")
+    return score
 
 
 def variants(sizes: list[int]) -> dict[str, dict]:
     """Each variant's patches (target → replacement) for a task whose inner folds train on ``sizes`` rows."""
-    def size_weighted(r):
-        r = _finite(r)
-        return float("inf") if r is None else float(np.average(r, weights=sizes[-len(r):]))
-
-    def mean_last(r):
-        r = _finite(r)
-        return float("inf") if r is None else float(0.5 * (r.mean() + r[-1]))
-
-    def mean(r):
-        r = _finite(r)
-        return float("inf") if r is None else float(r.mean())
-
-    def geometric(r):
-        r = _finite(r)
-        return float("inf") if r is None else float(np.exp(np.mean(np.log(np.maximum(r, 1e-12)))))
+    size_weighted = _on_finite(lambda r: np.average(r, weights=sizes[-len(r):]))
+    mean_last = _on_finite(lambda r: 0.5 * (r.mean() + r[-1]))
+    mean = _on_finite(np.mean)
+    geometric = _on_finite(lambda r: np.exp(np.mean(np.log(np.maximum(r, 1e-12)))))
 
     earns = search.earns_its_place
 
