@@ -1,7 +1,6 @@
 """The AutoML benchmark's tasks on the independent generators' machines (benchmarks/bench_automl.py): the recording
 goes through the public file format, and the held-out working condition is long enough to score on."""
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -9,14 +8,13 @@ import numpy as np
 from thermodrift.core import registry, splits
 from thermodrift.core.automl import folds as inner
 
+from support import load_file
+
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_automl.py"
 
 
 def _bench(path=BENCH):
-    spec = importlib.util.spec_from_file_location(path.stem, path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file(path)
 
 
 def _variants():

@@ -7,7 +7,6 @@ so a green run means something.
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import sys
 from pathlib import Path
@@ -48,6 +47,8 @@ from thermodrift.testing.optimizer_checks import (
 )
 from thermodrift.testing.selector_checks import check_selection_deterministic, check_selection_idempotent
 from thermodrift.testing.suite import CHECKS
+
+from support import load_file
 
 REGISTRY = load()
 TEMPLATES = Path(__file__).resolve().parents[1] / "docs" / "templates"
@@ -95,10 +96,9 @@ def test_hydra_config(kind, name):
 @pytest.mark.parametrize("template,check", [("selector_plugin", check_selector), ("model_plugin", check_model),
                                             ("optimizer_plugin", check_optimizer)])
 def test_plugin_templates_pass_the_suite(template, check, monkeypatch):
-    spec = importlib.util.spec_from_file_location(f"template_{template}", TEMPLATES / f"{template}.py")
-    module = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, spec.name, module)  # the pickle checks import the class by module name
-    spec.loader.exec_module(module)
+    # the pickle checks import the class by module name
+    module = load_file(TEMPLATES / f"{template}.py", f"template_{template}",
+                       lambda name, mod: monkeypatch.setitem(sys.modules, name, mod))
     reg = Registry()
     for hook in ("thermodrift_register_selectors", "thermodrift_register_models", "thermodrift_register_optimizers"):
         if hasattr(module, hook):

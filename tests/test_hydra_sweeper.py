@@ -30,14 +30,14 @@ from hydra_plugins.thermodrift_sweeper._sweep import create_sampler, objective_v
 from hydra_plugins.thermodrift_sweeper.config import ThermodriftSweeperConf
 from hydra_plugins.thermodrift_sweeper.sweeper import ThermodriftSweeper
 
+from support import load_file
+
 APP = Path(__file__).parent / "hydra_toy_app" / "quadratic.py"
 
 
 def _load_task():
-    spec = importlib.util.spec_from_file_location("hydra_toy_quadratic", APP)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    sys.modules[spec.name] = module  # so that hydra.sweeper.custom_search_space can name its function
+    # registered so that hydra.sweeper.custom_search_space can name its function
+    module = load_file(APP, "hydra_toy_quadratic", sys.modules.__setitem__)
     return module.main.__wrapped__  # the plain task function under @hydra.main
 
 

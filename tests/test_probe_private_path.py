@@ -1,21 +1,19 @@
 """The private-path probe (benchmarks/probe_private_path.py): a drift residual that follows a lagged driver is
 explained out of sample, blocks without the driver carry no evidence, and a residual unrelated to it is not."""
 
-import importlib.util
 from pathlib import Path
 
 import numpy as np
 
 from thermodrift.core.physics.sensors import first_order_lag
 
+from support import load_file
+
 PROBE = Path(__file__).resolve().parent.parent / "benchmarks" / "probe_private_path.py"
 
 
 def _probe():
-    spec = importlib.util.spec_from_file_location(PROBE.stem, PROBE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_file(PROBE)
 
 
 def _case(rng, follows: bool):

@@ -4,7 +4,6 @@ built through the registry exactly as a study builds it, and on the one-file met
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 import warnings
 from pathlib import Path
@@ -17,6 +16,8 @@ from optuna.testing.pytest_samplers import BasicSamplerTestCase, RelativeSampler
 from thermodrift.core import configs, registry
 from thermodrift.testing.suite import parameter_sets
 
+from support import load_file
+
 OURS = ["pso", "pso_constriction", "gwo", "fa", "rbmo", "rbmox", "sho"]
 REGISTRY = registry.load()
 CONF = Path(__file__).resolve().parents[1] / "conf" / "optimizer"
@@ -25,10 +26,8 @@ TEMPLATE = Path(__file__).resolve().parents[1] / "docs" / "templates" / "optimiz
 
 def _template_registry() -> registry.Registry:
     """A registry holding only the template's optimizer, registered by its own hook."""
-    spec = importlib.util.spec_from_file_location("template_optimizer_plugin", TEMPLATE)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # the suite pickles samplers, which imports the class by module name
-    spec.loader.exec_module(module)
+    # the suite pickles samplers, which imports the class by module name
+    module = load_file(TEMPLATE, "template_optimizer_plugin", sys.modules.__setitem__)
     reg = registry.Registry()
     module.thermodrift_register_optimizers(registry=reg)
     return reg
