@@ -183,7 +183,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     inner_rec = recording.select(inner_rows)
     before_validation = ~np.isin(np.arange(int(blocks.max()) + 1), blocks[np.isin(rows, val_rows)])
     displacement = np.array([k == "displacement" for k in kinds])
-    fast_lag = max(int(round(rule.FAST_S / float(np.median(np.diff(t))))), 1)
     base = screening.baseline_of(cal.network, scenario, channels, measured, rows, sigma)
     first = base
     findings: list[dict[str, Any]] = []
@@ -250,8 +249,8 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if not fitted:
             break
         level = round_level(alpha, round_)
-        judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows, base.readings,
-                             fast_lag) for f in fitted]
+        judged = [rule.judge(f, displacement, drift_groups, measured, sigma, rows, blocks, val_rows)
+                  for f in fitted]
         for f, j in zip(fitted, judged):
             f.spread = j.spread
         # Benjamini–Hochberg over every candidate screened this round: the fitted ones with their re-simulated

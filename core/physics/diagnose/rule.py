@@ -22,16 +22,11 @@ On the judged channels (:func:`judge`):
            condition blocks, the structural misfit's own scale: :data:`SPREAD_Z` of them).
 * guard    the other channels on that block are not worse than :data:`GUARD_SHARE` of the baseline's error
            there or :data:`GUARD_Z` standard errors of their own block-to-block spread.
-* fast     the candidate does not make the fast part of its judged channels worse: over pairs of fitted rows
-           :data:`FAST_S` apart, the changes of its response against the changes of the residual
-           (:func:`fast_band`). A mechanism explains the residual on every time scale its response has; an impostor
-           fits the level of a slow misfit and misses its time course (an instantaneous centrifugal step standing in
-           for a drift that ramps up over tens of minutes after each speed change).
 
-A candidate passes with all three lines of evidence (test, blocks, held out), the guard and the fast band, or with
-the blocks, the guard and the fast band when the held-out gain is decisive: in standard errors of the block
-spread, read as a t statistic over the condition blocks, significant at the round's level over the fitted
-candidates (Bonferroni, :func:`passes`). The whitening removes a slow mechanism's signature from the likelihood ratio (a slow structural
+A candidate passes with all three lines of evidence (test, blocks, held out) and the guard, or with the blocks
+and the guard when the held-out gain is decisive: in standard errors of the block spread, read as a t statistic
+over the condition blocks, significant at the round's level over the fitted candidates (Bonferroni,
+:func:`passes`). The whitening removes a slow mechanism's signature from the likelihood ratio (a slow structural
 mode whose fit predicts the unseen block nine-tenths better fails it); the held-out block and the blocks then
 carry the evidence, both out of sample. A decisive held-out gain never stands in for the blocks: on a machine
 the baseline cannot represent, a candidate that soaks up structural misfit on the one held-out block reaches t
@@ -52,9 +47,6 @@ GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
 CV_LEVEL = 0.10     # one-sided level of the t-test that the per-block cross-validated gain is positive
-FAST_S = 240.0      # the fast band: changes over this many seconds (a speed change's mechanical settling and a
-                    # probe's averaging are over by then; a machine's structure has taken a quarter of its rise)
-FAST_Z = 1.645      # one-sided 5 %: the fast band may get worse by this many standard errors of its gain
 
 
 @dataclass
@@ -76,8 +68,6 @@ class Judged:
     n_val: int
     channels: np.ndarray = field(default=None, repr=False)  # the judged channels (bool per channel)
     blocks: int = 0       # condition blocks of the cross-validation
-    fast_gain: float = 0.0  # drop of the fast-band sum of squares on the judged channels (noise units)
-    fast_se: float = 0.0    # its standard error
 
     def held_out_t(self) -> float:
         """The held-out gain per sample over the standard error of the block spread."""
@@ -102,9 +92,6 @@ class Judged:
     def held_out(self) -> bool:
         return self.val_gain > 0 and self.val_gain > SPREAD_Z * self.spread * max(self.n_val, 1)
 
-    def fast(self) -> bool:
-        return self.fast_gain >= -FAST_Z * self.fast_se
-
     def guarded(self) -> bool:
         slack = max(GUARD_SHARE * self.guard_base, GUARD_Z * self.guard_spread * max(self.n_val, 1))
         return not self.guard_gain < -slack
@@ -116,8 +103,7 @@ class Judged:
                 self.val_gain, "judged_validation_base": self.val_base, "judged_block_spread": self.spread,
                 "guard_validation_gain": self.guard_gain, "guard_validation_base": self.guard_base,
                 "guard_block_spread": self.guard_spread, "validation_samples": self.n_val,
-                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p(), "fast_band_gain": self.fast_gain,
-                "fast_band_se": self.fast_se}
+                "cv_blocks": self.blocks, "held_out_p_value": self.held_out_p()}
 
 
 def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, weights: np.ndarray,
@@ -133,26 +119,6 @@ def block_spread(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarray, 
     return float(np.std(means, ddof=1)) / float(np.sqrt(k)) if len(means) > 1 else 0.0
 
 
-def fast_band(measured: np.ndarray, baseline: np.ndarray, readings: np.ndarray, sigma: np.ndarray,
-              rows: np.ndarray, judged: np.ndarray, lag: int) -> tuple[float, float]:
-    """The drop G of the fast-band sum of squares on the ``judged`` channels and its standard error: with the
-    residual r = (measured − baseline)/σ and the response d = (readings − baseline)/σ, their changes Δ over the
-    pairs of fitted ``rows`` ``lag`` samples apart, G = Σ Δr² − Σ (Δr − Δd)² = 2 Σ Δd·Δr − Σ Δd². Its standard
-    error 2·√(lag · Σ_c s_c² Σ Δd_c²), s_c² the mean Δr² of channel c (signal included: conservative; ``lag``
-    overlapping changes share their terms)."""
-    fitted = np.zeros(len(measured), bool)
-    fitted[rows] = True
-    pair = np.flatnonzero(fitted[lag:] & fitted[:-lag]) + lag
-    if not len(pair) or not judged.any():
-        return 0.0, 0.0
-    r = (measured - baseline)[:, judged] / sigma[judged]
-    d = (readings - baseline)[:, judged] / sigma[judged]
-    dr, dd = r[pair] - r[pair - lag], d[pair] - d[pair - lag]
-    gain = float(2 * (dd * dr).sum() - (dd ** 2).sum())
-    se = 2 * float(np.sqrt(lag * ((dr ** 2).mean(axis=0) * (dd ** 2).sum(axis=0)).sum()))
-    return gain, se
-
-
 def judged_channels(response: np.ndarray, displacement: np.ndarray) -> np.ndarray:
     """The channels (bool per channel) a candidate with screening ``response`` (rows × channels) is judged on:
     the drift channels (``displacement``) when its response reaches one of them, else the temperature channels it
@@ -162,13 +128,11 @@ def judged_channels(response: np.ndarray, displacement: np.ndarray) -> np.ndarra
 
 
 def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.ndarray, sigma: np.ndarray,
-          rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray, baseline: np.ndarray | None = None,
-          lag: int = 1) -> Judged:
+          rows: np.ndarray, blocks: np.ndarray, val_rows: np.ndarray) -> Judged:
     """The statistics of fitted candidate ``f`` (:class:`.selection.Fitted`) on its judged channels: the drift
     channels (``displacement``, bool per channel) when its response reaches them, else the temperature channels
     its response changes (a lagged sensor's own). ``group_is_drift`` marks the screening's amplitude groups that
-    are drift channels; ``baseline`` the baseline's readings, ``lag`` the fast band's samples (:func:`fast_band`;
-    no baseline: no fast band)."""
+    are drift channels."""
     judged = judged_channels(f.candidate.response, displacement)
     drift = bool((judged & displacement).any())
     guard = ~judged
@@ -187,15 +151,13 @@ def judge(f, displacement: np.ndarray, group_is_drift: np.ndarray, measured: np.
     return Judged("drift" if drift else "temperatures", stat, float(stats.chi2.sf(max(stat, 0.0), max(f.dof, 1))),
                   cv_gain, cv_wins, cv_t, float(f.val_drop[judged].sum()), float(f.val_base[judged].sum()),
                   spread(judged), float(f.val_drop[guard].sum()), float(f.val_base[guard].sum()), spread(guard),
-                  len(val_rows), judged, len(per_block),
-                  *(fast_band(measured, baseline, f.readings, sigma, rows, judged, lag) if baseline is not None
-                    else (0.0, 0.0)))
+                  len(val_rows), judged, len(per_block))
 
 
 def passes(f, j: Judged, discovered: bool, decisive_level: float = 0.0) -> bool:
     """The module docstring's rule, given the Benjamini–Hochberg decision ``discovered`` and the level at which a
     held-out gain is decisive (the round's level over the number of fitted candidates; 0: never)."""
-    if not (j.statistic > 0 and not f.outside and j.guarded() and j.fast()):
+    if not (j.statistic > 0 and not f.outside and j.guarded()):
         return False
     if j.three_lines(discovered):
         return True
@@ -216,10 +178,6 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int) -> str:
     if not j.consistent():
         return (f"held-out condition blocks do not improve consistently on the {where} channels (gain "
                 f"{j.cv_gain:.3g}, {j.cv_wins:.0%} of blocks, t = {j.cv_t:.2f} over {j.blocks} blocks)")
-    if not j.fast():
-        return (f"its response's fast part (changes over {FAST_S:g} s) is not in the data: it makes the {where} "
-                f"channels' fast band worse by {-j.fast_gain:.3g} (noise units, {FAST_Z:g} × standard error "
-                f"{j.fast_se:.3g} allowed); it fits the level of a slower misfit, not its time course")
     per = j.val_gain / max(j.n_val, 1)
     if j.val_gain > 0 and not j.held_out():
         return (f"fitted without the last part of the fitted data, it predicts that part's {where} channels better "
