@@ -108,6 +108,7 @@ class _Arrays:
     def __init__(self, scenario: Scenario):
         self.frame = scenario.frame.drop(columns="condition")
         self.time_s = scenario.time_s
+        self.timing = scenario.timing
 
 
 class Problem:
@@ -157,10 +158,10 @@ class Problem:
                                                max_fit_samples)
         # The search simulates on the fit grid (inputs held from each grid sample; exact for the held inputs),
         # final predictions use the full grid.
-        fit_scenario = Scenario(self.scenario.frame.iloc[self.rows], self.scenario.name)
+        fit_scenario = Scenario(self.scenario.frame.iloc[self.rows], self.scenario.name, self.scenario.timing)
         self.arrays = {False: _Arrays(fit_scenario), True: _Arrays(self.scenario)}
         self.resting = {full: _Arrays(Scenario(scen.frame.assign(
-            speed_rpm=0.0, cutting_power_W=0.0, axis_velocity_mm_min=0.0), scen.name))
+            speed_rpm=0.0, cutting_power_W=0.0, axis_velocity_mm_min=0.0), scen.name, scen.timing))
             for full, scen in ((False, fit_scenario), (True, self.scenario))}
         self.boundaries = {"ambient": self.scenario.frame["ambient_degC"].to_numpy(),
                            "coolant": self.scenario.frame["coolant_inlet_degC"].to_numpy()}
