@@ -247,3 +247,45 @@ def test_one_displacement_formula_for_simulation_prediction_and_the_observer():
     readings, states = predict(net_s, scen, reference=X[0] + 1.0)
     np.testing.assert_allclose(readings["d"].to_numpy(), Y[:, 0] - 3.0, atol=1e-9)
     np.testing.assert_allclose(comp.displacements(X[5], speed[5], X[0])[0], Y[5], atol=1e-12)
+
+
+def _off_grid_programme(seed: int, hours: float = 10.0, fine_s: float = 15.0):
+    """Speed levels switched at random times on a fine grid, and the same programme read every 8th sample."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, hours * 3600 + 1, fine_s)
+    changes = np.round(np.sort(rng.uniform(600, hours * 3600, 30)) / fine_s) * fine_s
+    levels = rng.choice([0.0, 2000.0, 4000.0, 6000.0, 8000.0], len(changes) + 1)
+    fine = pd.DataFrame({"speed_rpm": levels[np.searchsorted(changes, t, side="right")]}, index=t)
+    return fine, fine.iloc[::8]
+
+
+def test_instantaneous_samples_switch_halfway_and_track_an_off_grid_programme_closer():
+    net = physics.load_network("demo_spindle")
+    fine, read = _off_grid_programme(1)
+    truth = physics.simulate(net, physics.Scenario(fine))
+    comp = physics.CompiledNetwork(net)
+    err = {}
+    for timing in ("held", "instant"):
+        X = comp.trajectory(physics.Scenario(read, timing=timing))
+        err[timing] = float(np.sqrt(((X - truth.temperatures.to_numpy()[::8]) ** 2).mean()))
+    # the change happened anywhere within the step before its first reading: halfway is right on average
+    assert err["instant"] < 0.7 * err["held"]
+    # with nothing switching, both timings give the same trajectory; a change at the last sample is one step
+    steady = pd.DataFrame({"speed_rpm": [3000.0] * 49 + [6000.0]}, index=np.arange(50) * 60.0)
+    held = comp.trajectory(physics.Scenario(steady))
+    instant = comp.trajectory(physics.Scenario(steady, timing="instant"))
+    np.testing.assert_allclose(instant[:-1], held[:-1], atol=1e-9)
+    assert instant[-1, 0] != held[-1, 0]
+    with pytest.raises(InputError, match="timing"):
+        physics.Scenario(steady, timing="sometimes")
+
+
+def test_a_simulated_recording_declares_its_drive_inputs_held(tmp_path):
+    from thermodrift.core.recording import load_recording
+
+    rec = physics.simulate(physics.load_network("demo_spindle"), scenarios.demo(dt_s=60.0)).to_recording(seed=0)
+    assert rec.sampling == "held"
+    rec.write(tmp_path / "r.csv", tmp_path / "r.yaml")
+    again = load_recording(tmp_path / "r.csv", tmp_path / "r.yaml")
+    assert again.sampling == "held" and physics.Scenario.from_recording(again).timing == "held"
+    assert physics.Scenario.from_recording(again.with_sampling("instant")).timing == "instant"
