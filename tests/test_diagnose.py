@@ -13,7 +13,6 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.physics.diagnose import diagnose
 from thermodrift.core.physics.diagnose.concealed import concealed_case
 from thermodrift.core.physics.diagnose.windows import driver_windows
-from thermodrift.core.recording import Channel, Recording
 
 # A small library keeps the tests quick; the benchmark screens every registered mechanism.
 LIBRARY = ["cutting_heat", "centrifugal_growth", "thermal_tilt", "ambient_coupling", "axis_drive_heat"]
@@ -36,8 +35,6 @@ def test_a_concealed_cutting_heat_is_found_and_improves_the_held_out_fit(cutting
     before, after = d.rmse(d.baseline, final), d.rmse(d.augmented, final)
     assert all(after[c] < 0.8 * before[c] for c in before)
     assert 0.5 <= f["confidence"] <= 1.0 and f["where"]
-    # a simulated recording declares that its inputs hold from their sample on; the finder reads them so
-    assert d.adequacy["input_timing"] == {"sampling": "held", "declared": True}
 
 
 def test_nothing_hidden_answers_none_and_skips_constant_drivers():
@@ -48,16 +45,6 @@ def test_nothing_hidden_answers_none_and_skips_constant_drivers():
     reasons = {r["mechanism"]: r["reason"] for r in d.rejected}
     assert "constant" in reasons["cutting_heat"] and "constant" in reasons["axis_drive_heat"]
     assert np.allclose(d.augmented, d.baseline)
-
-
-def test_an_undeclared_speed_is_read_as_instantaneous_samples(cutting_case):
-    rec = cutting_case.recording
-    undeclared = Recording(rec.data, {n: Channel(n, c.role, c.unit, {k: v for k, v in c.meta.items()
-                                                                      if k != "sampling"})
-                                      for n, c in rec.channels.items()}, rec.source)
-    assert undeclared.sampling is None
-    d = diagnose(undeclared, cutting_case.baseline, seed=0, bootstrap=20, only=["cutting_heat"], max_rounds=1)
-    assert d.adequacy["input_timing"] == {"sampling": "instant", "declared": False}
 
 
 def test_windows_come_from_every_driver(cutting_case):

@@ -226,13 +226,6 @@ def main() -> None:
     case("missing_unit", table=good, manifest=manifest_with("{role: displacement, unit: um, axis: z}",
                                                             "{role: displacement, axis: z}"),
          expect={"file": M, "column": "disp_z_um", "match": "has no unit"})
-    case("unknown_sampling", table=good, manifest=manifest_with("spindle_rpm: {role: speed, unit: rpm}",
-                                                                "spindle_rpm: {role: speed, unit: rpm, sampling: avg}"),
-         expect={"file": M, "column": "spindle_rpm", "match": "unknown sampling 'avg'"})
-    case("sampling_on_temperature", table=good, manifest=manifest_with("T2: {role: temperature, unit: degC}",
-                                                                       "T2: {role: temperature, unit: degC, "
-                                                                       "sampling: instant}"),
-         expect={"file": M, "column": "T2", "match": "sampling is declared for drive channels only"})
     case("unknown_unit", table=good, manifest=manifest_with("T1: {role: temperature, unit: degC",
                                                             "T1: {role: temperature, unit: degF"),
          expect={"file": M, "column": "T1", "match": "unknown unit 'degF'"})
