@@ -157,37 +157,12 @@ class CompiledNetwork:
             X[0] = _initial_state(self, initial, 0.0, flow[0], rest)
             dt = np.round(np.diff(t), 9)
             keys = np.column_stack([speed[:-1], flow[:-1], dt])
-            if getattr(scenario, "timing", "held") == "instant":
-                self._switch_halfway(X, speed, flow, dt, U, method)
-                return X
             change = np.flatnonzero(np.any(keys[1:] != keys[:-1], axis=1)) + 1
             for a, b in zip(np.r_[0, change], np.r_[change, len(t) - 1]):
                 key = (float(speed[a]), float(flow[a]), float(dt[a]), method)
                 _, Gam = self.step(*key)
                 X[a + 1:b + 1] = self._propagate(key, X[a], U[a:b] @ Gam.T)
         return X
-
-    def _switch_halfway(self, X: np.ndarray, speed: np.ndarray, flow: np.ndarray, dt: np.ndarray, U: np.ndarray,
-                        method: str) -> None:
-        """Fill ``X[1:]`` from ``X[0]`` with every input switching halfway between samples: over step k the first
-        half holds u_k at level k (speed, flow), the second u_{k+1} at level k+1. Within a run at one level this is
-        x_{k+1} = Φ² x_k + ΦΓ u_k + Γ u_{k+1} (Φ, Γ of the half step), one propagation; a step across a level
-        change is taken as its two halves."""
-        steady = (speed[1:] == speed[:-1]) & (flow[1:] == flow[:-1])  # step k stays at one level
-        keys = np.column_stack([speed[:-1], flow[:-1], dt])
-        brk = np.r_[True, np.any(keys[1:] != keys[:-1], axis=1) | (steady[1:] != steady[:-1]) | ~steady[1:]]
-        starts = np.flatnonzero(brk)
-        for a, b in zip(starts, np.r_[starts[1:], len(dt)]):
-            half = float(dt[a]) / 2
-            Ph, Gh = self.step(float(speed[a]), float(flow[a]), half, method)
-            if steady[a]:
-                key = ("halfway", float(speed[a]), float(flow[a]), float(dt[a]), method)
-                if key not in self._levels:
-                    self._levels[key] = (Ph @ Ph, None)
-                X[a + 1:b + 1] = self._propagate(key, X[a], U[a:b] @ (Ph @ Gh).T + U[a + 1:b + 1] @ Gh.T)
-            else:  # one step across a level change (b == a + 1)
-                Pn, Gn = self.step(float(speed[a + 1]), float(flow[a + 1]), half, method)
-                X[a + 1] = Pn @ (Ph @ X[a] + Gh @ U[a]) + Gn @ U[a + 1]
 
     def displacements(self, X: np.ndarray, speed_rpm: np.ndarray, reference: np.ndarray | None = None) -> np.ndarray:
         """Output displacements (µm, samples × outputs) of node temperatures ``X`` (°C, samples × nodes, or one
@@ -238,14 +213,13 @@ class SimulationResult:
 
         f = self.scenario.frame
         columns = {"spindle_rpm": f["speed_rpm"].to_numpy()}
-        drive = {"sampling": self.scenario.timing}  # how the integrator read them, declared for whoever reads them
-        channels = {"spindle_rpm": Channel("spindle_rpm", "speed", "rpm", drive)}
+        channels = {"spindle_rpm": Channel("spindle_rpm", "speed", "rpm", {})}
         for col, role, unit in (("cutting_power_W", "cutting_power", "W"),
                                 ("axis_velocity_mm_min", "axis_velocity", "mm_min")):
             values = f[col].to_numpy()
             if values.any():
                 columns[col] = values
-                channels[col] = Channel(col, role, unit, drive)
+                channels[col] = Channel(col, role, unit, {})
         readings = self.measure(seed)
         for s in self.network.sensors:
             columns[s.name] = readings[s.name].to_numpy()

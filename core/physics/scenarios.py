@@ -15,12 +15,6 @@ column                        unit      default
 ``condition``                 label     "" (the working condition, for condition-held-out splits)
 ============================  ========  ==================================================
 
-``timing`` says when a change between two samples takes effect: ``held`` (default: each value holds over the
-step after its sample, the zero-order hold of a programme switched at the sample times) or ``instant`` (the
-values are instantaneous readings: a change first seen at a sample happened somewhere in the step before it, so
-every input switches halfway between the samples, the unbiased time when it is unknown). A recording's speed
-channel declares it (manifest key ``sampling``, :data:`thermodrift.core.recording.SAMPLING`).
-
 Builders: :func:`blocks` (constant-input blocks, ISO 230-3 style) with ambient profiles
 (:func:`constant`, :func:`daily_cycle`, :func:`warm_ventilation`, :func:`steps`) and chiller cycling
 (:func:`chiller_cycling`); named programmes in :data:`SCENARIOS` (:func:`build` by name): the FL_THERMAL
@@ -37,19 +31,15 @@ import pandas as pd
 
 from thermodrift.core.errors import InputError
 
-TIMINGS = ("held", "instant")
 SIGNALS = ("speed_rpm", "ambient_degC", "coolant_inlet_degC", "coolant_flow", "cutting_power_W",
            "axis_velocity_mm_min")
 Profile = Callable[[np.ndarray], np.ndarray]  # time in s -> °C
 
 
 class Scenario:
-    """Input signals on a time grid; see the module docstring for the columns and ``timing``. Missing columns get
-    defaults."""
+    """Input signals on a time grid; see the module docstring for the columns. Missing columns get defaults."""
 
-    def __init__(self, frame: pd.DataFrame, name: str = "scenario", timing: str = "held"):
-        if timing not in TIMINGS:
-            raise InputError(f"scenario {name!r}: unknown timing {timing!r}", hint=f"use one of {', '.join(TIMINGS)}")
+    def __init__(self, frame: pd.DataFrame, name: str = "scenario"):
         frame = frame.copy()
         frame.index = pd.Index(np.asarray(frame.index, dtype=float), name="time_s")
         if len(frame) < 2:
@@ -73,7 +63,6 @@ class Scenario:
             raise InputError(f"scenario {name!r}: coolant_flow is a fraction in [0, 1]")
         self.frame = frame[[*SIGNALS, "condition"]]
         self.name = name
-        self.timing = timing
 
     @property
     def time_s(self) -> np.ndarray:
@@ -99,12 +88,12 @@ class Scenario:
         t = np.arange(self.time_s[0], self.time_s[-1] + 1e-9, dt_s)
         idx = np.searchsorted(self.time_s, t, side="right") - 1
         frame = self.frame.iloc[idx].set_axis(pd.Index(t, name="time_s"))
-        return Scenario(frame, self.name, self.timing)
+        return Scenario(frame, self.name)
 
     def head(self, hours: float) -> "Scenario":
         """The first ``hours`` of the scenario."""
         keep = self.time_s <= self.time_s[0] + hours * 3600.0 + 1e-9
-        return Scenario(self.frame[keep], self.name, self.timing)
+        return Scenario(self.frame[keep], self.name)
 
     @classmethod
     def from_recording(cls, recording, ambient_degC: float = 20.0, speed_step_rpm: float = 10.0) -> "Scenario":
@@ -112,7 +101,6 @@ class Scenario:
 
         Speeds are rounded to ``speed_step_rpm`` so that a measured, slightly noisy speed still gives a few
         operating levels (each distinct level costs one matrix exponential). Missing ambient: ``ambient_degC``.
-        The timing is the one the recording's speed channel declares (undeclared: ``held``).
         """
         frame = pd.DataFrame(index=pd.Index(recording.time_s, name="time_s"))
         for role, col in (("speed", "speed_rpm"), ("ambient", "ambient_degC"),
@@ -126,7 +114,7 @@ class Scenario:
         if "ambient_degC" not in frame:
             frame["ambient_degC"] = ambient_degC
         frame["condition"] = recording.conditions().to_numpy().astype(str)
-        return cls(frame, getattr(recording, "source", "recording"), getattr(recording, "sampling", None) or "held")
+        return cls(frame, getattr(recording, "source", "recording"))
 
 
 # --- ambient and coolant profiles (vectorised functions of time in s) -------------------------------------------

@@ -9,9 +9,6 @@ A manifest names the time column and gives every used column a role and a unit::
       T_front_bearing: {role: temperature, unit: degC, location: front_bearing}
       disp_z_um: {role: displacement, unit: um, axis: z}
 
-A drive channel (speed, cutting power, axis velocity) may declare ``sampling``: ``held`` (its value holds over the
-interval after the sample) or ``instant`` (an instantaneous reading; see :data:`~.types.SAMPLING`).
-
 :func:`load_recording` checks everything a user can get wrong and raises :class:`InputError` with one line
 naming the file, the column and the row. Row numbers are those a user sees in a spreadsheet or a text editor:
 the header is row 1, the first data row is row 2. Isolated missing values (at most ``MAX_NAN_RUN`` in a row)
@@ -37,8 +34,7 @@ import yaml
 
 from thermodrift.core import limits
 from thermodrift.core.errors import InputError
-from thermodrift.core.recording.types import (DRIVE_ROLES, ROLES, SAMPLING, TEMPERATURE_ROLES, TIME_INDEX, Channel,
-                                              Recording)
+from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording
 
 # Per role: canonical unit and accepted units as (scale, offset) with canonical = value * scale + offset.
 _TEMPERATURE = ("degC", {"degC": (1.0, 0.0), "°C": (1.0, 0.0), "K": (1.0, -273.15)})
@@ -264,13 +260,6 @@ def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, d
                          hint=_suggest(str(role), ROLES, f"use one of {', '.join(ROLES)}"))
     unit = spec.get("unit")
     meta = {str(k): v for k, v in spec.items() if k not in ("role", "unit")}
-    if "sampling" in meta:
-        if role not in DRIVE_ROLES:
-            raise InputError(f"sampling is declared for drive channels only ({', '.join(DRIVE_ROLES)}), not {role}",
-                             file=file, column=column, hint="remove the sampling key")
-        if meta["sampling"] not in SAMPLING:
-            raise InputError(f"unknown sampling {meta['sampling']!r}", file=file, column=column,
-                             hint=f"use one of {', '.join(SAMPLING)}")
     if role in ("condition", "ignore"):
         if role == "condition" and unit is not None:
             raise InputError(f"a condition label has no unit (got {unit!r})", file=file, column=column,

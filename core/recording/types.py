@@ -22,11 +22,6 @@ ROLES = ("speed", "temperature", "displacement", "ambient", "coolant_inlet", "co
          "cutting_power", "axis_velocity", "condition", "ignore")
 TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
 TIME_INDEX = "time_s"
-# How a drive channel's value relates to its interval (manifest key ``sampling``): ``held`` — the value holds over
-# the interval after its sample (a programme switched at the sample times; what the simulator writes);
-# ``instant`` — an instantaneous reading: a change seen first at a sample happened somewhere in the interval before.
-SAMPLING = ("held", "instant")
-DRIVE_ROLES = ("speed", "cutting_power", "axis_velocity")
 
 
 @dataclass(frozen=True)
@@ -121,22 +116,6 @@ class Recording:
         """Spindle speed in rpm, or None."""
         cols = self.columns("speed")
         return self.data[cols[0]] if cols else None
-
-    @property
-    def sampling(self) -> str | None:
-        """The speed channel's declared :data:`SAMPLING` (None: no speed channel or not declared)."""
-        cols = self.columns("speed")
-        return self.channels[cols[0]].meta.get("sampling") if cols else None
-
-    def with_sampling(self, sampling: str) -> Recording:
-        """A copy whose drive channels (:data:`DRIVE_ROLES`) declare ``sampling`` (:data:`SAMPLING`)."""
-        if sampling not in SAMPLING:
-            raise ValueError(f"unknown sampling {sampling!r}; use one of {', '.join(SAMPLING)}")
-        channels = {n: Channel(n, ch.role, ch.unit, {**ch.meta, "sampling": sampling}) if ch.role in DRIVE_ROLES
-                    else ch for n, ch in self.channels.items()}
-        out = Recording(self.data, channels, self.source, self.notes)
-        out._labels = self._labels
-        return out
 
     def conditions(self) -> pd.Series:
         """Working-condition label per sample: the condition channel, else detected from the speed schedule.

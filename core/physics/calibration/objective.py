@@ -108,7 +108,6 @@ class _Arrays:
     def __init__(self, scenario: Scenario):
         self.frame = scenario.frame.drop(columns="condition")
         self.time_s = scenario.time_s
-        self.timing = scenario.timing
 
 
 class Problem:
@@ -158,10 +157,10 @@ class Problem:
                                                max_fit_samples)
         # The search simulates on the fit grid (inputs held from each grid sample; exact for the held inputs),
         # final predictions use the full grid.
-        fit_scenario = Scenario(self.scenario.frame.iloc[self.rows], self.scenario.name, self.scenario.timing)
+        fit_scenario = Scenario(self.scenario.frame.iloc[self.rows], self.scenario.name)
         self.arrays = {False: _Arrays(fit_scenario), True: _Arrays(self.scenario)}
         self.resting = {full: _Arrays(Scenario(scen.frame.assign(
-            speed_rpm=0.0, cutting_power_W=0.0, axis_velocity_mm_min=0.0), scen.name, scen.timing))
+            speed_rpm=0.0, cutting_power_W=0.0, axis_velocity_mm_min=0.0), scen.name))
             for full, scen in ((False, fit_scenario), (True, self.scenario))}
         self.boundaries = {"ambient": self.scenario.frame["ambient_degC"].to_numpy(),
                            "coolant": self.scenario.frame["coolant_inlet_degC"].to_numpy()}

@@ -4,8 +4,6 @@ Pipeline (:func:`diagnose`)::
 
     final block   the last ~20 % of the recording (cut at a condition boundary) is kept out of everything
                   below and only scores the result (``heldout_rmse_um``)
-    inputs        a speed channel that does not declare its sampling is read as instantaneous samples: every
-                  input switches halfway between samples (:mod:`thermodrift.core.physics.scenarios`)
     baseline      calibrate the network (``auto`` without its prior, its hidden nodes chosen first on the inner
                   validation block and the lags its expansion map reads the nodes through on that block and the
                   inner condition blocks, :mod:`.adequacy`; or a spec with its parameters fixed and only the linear
@@ -154,10 +152,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     if registry is None:
         from thermodrift.core import registry as reg_module
         registry = reg_module.default()
-    declared = recording.sampling
-    if declared is None and recording.speed is not None:
-        # a logged speed is a reading: a change first seen at a sample happened within the interval before it
-        recording = recording.with_sampling("instant")
     t = recording.time_s
     fit_rows = t < final_cut(recording)
     fit_rec = recording.select(fit_rows)
@@ -244,7 +238,6 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                                        validation.base_readings, screen.noise)
             adequate["hidden_nodes"] = structure
             adequate["expansion_lags"] = lag_table
-            adequate["input_timing"] = {"sampling": scenario.timing, "declared": declared is not None}
         fitted = []
         for c in ranked:
             try:

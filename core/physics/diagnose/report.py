@@ -16,9 +16,8 @@ Keys added besides (never renamed): per finding ``test``, ``statistic``, ``dof``
 evidence passed it: the likelihood ratio, blocks and held-out gain, or a decisive held-out gain with the blocks,
 whose t statistic, degrees of freedom and p-value are then ``statistic``, ``dof`` and ``p_value``); at the top level
 ``adequacy`` (:func:`thermodrift.core.physics.diagnose.adequacy.assess`: the baseline's misfit against noise,
-its residual's correlation, its validation error against its fitted error, the hidden-node counts tried,
-``expansion_lags``, the expansion map's lags tried, and ``input_timing``: the drive inputs' sampling the
-simulations used and whether the recording declared it).
+its residual's correlation, its validation error against its fitted error, the hidden-node counts tried and
+``expansion_lags``, the expansion map's lags tried).
 
 Besides it: ``report.md``, ``residuals.csv`` (measured minus baseline and augmented prediction per channel and
 sample, with the final-block flag), ``residual_map.png`` (before and after), ``fit.png`` (each displacement
@@ -181,13 +180,6 @@ def markdown(d, doc: dict[str, Any], command: str) -> str:
                           (f"lag {', '.join(f'{x:g}' for x in h['lags_h'])} h" if h["lags_h"] else "no lag")
                           + f": held out {h['heldout_drift_error']:.4g}, blocks {h['blocks_drift_error']:.4g}"
                           + (" (chosen)" if h.get("chosen") else "") for h in a["expansion_lags"]) + "."]
-        if a.get("input_timing"):
-            it = a["input_timing"]
-            lines += ["", f"Drive inputs read as `{it['sampling']}` samples"
-                      + (" (declared by the recording)." if it["declared"] else
-                         " (not declared by the recording: a change between two samples is taken to happen halfway "
-                         "between them; declare `sampling: held` on the speed channel if the values hold from "
-                         "their sample on).")]
     lines += ["", "## Findings", ""]
     if not d.findings:
         lines.append("None.")
