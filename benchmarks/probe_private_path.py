@@ -2,7 +2,7 @@
 
 The finder's candidates respond through the baseline's own structure (heat into a node the baseline has, read by
 the sensitivities it fitted). On a machine that is not ours that structure is wrong, and a candidate's amplitude
-fitted on some condition blocks does not transfer to the others (``docs/diagnose_benchmark.md``). This probe asks
+fitted on some condition blocks does not transfer to the others (``docs/diagnose_experiments.md``). This probe asks
 whether a response free of that structure would do better: the baseline's drift residual on the fitted rows is
 regressed on a driver channel passed through a first-order lag of its own (the sensor model's
 :func:`~thermodrift.core.physics.sensors.first_order_lag`, time constant τ; gain and offset solved by least
