@@ -343,6 +343,10 @@ def main(argv: list[str] | None = None) -> int:
                          "7000 have each been run once: pick a fresh one)")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
+    ap.add_argument("--step-s", type=float, default=120.0, metavar="SECONDS",
+                    help="with --generator fd|lumped: the logging interval of the recordings (default 120 s)")
+    ap.add_argument("--seeds", nargs="+", type=int, metavar="SEED",
+                    help="with --generator fd|lumped: only the cases of these seeds")
     ap.add_argument("--timing", action="store_true", help="with --generator fd|lumped: only the two 30 h recordings "
                     "at 15 s (run time at the target's sampling; --full includes them)")
     ap.add_argument("--fl-part", metavar="K/N",
@@ -360,8 +364,9 @@ def main(argv: list[str] | None = None) -> int:
         synthetic, fl = [r for r in rows if "hidden" in r], [r for r in rows if "hidden" not in r]
         print(report(synthetic, fl, args) if synthetic else report_fl(fl))
         return 0
-    if (args.sealed or args.only or args.timing) and args.generator == "library":
-        ap.error("--sealed, --only and --timing need --generator fd or lumped")
+    independent_only = args.sealed or args.only or args.timing or args.seeds or args.step_s != 120.0
+    if independent_only and args.generator == "library":
+        ap.error("--sealed, --only, --seeds, --step-s and --timing need --generator fd or lumped")
     done = {}
     if args.results and args.results.is_file():
         for line in args.results.read_text(encoding="utf-8").splitlines():
@@ -411,7 +416,7 @@ def main_independent(args, done: dict, start: float) -> int:
     # hidden and null cases interleaved, so a run cut short (or one --part of it) holds a balanced share of both
     mixed = sorted([(i / len(hid), 0, c) for i, c in enumerate(hid)]
                    + [((i + 0.5) / len(nul), 1, c) for i, c in enumerate(nul)], key=lambda x: (x[0], x[1]))
-    specs = [(s_, h, c, 120.0) for _, _, (s_, h, c) in mixed]
+    specs = [(s_, h, c, args.step_s) for _, _, (s_, h, c) in mixed]
     if args.timing:
         specs = []
     if args.full or args.timing:  # run time at the target's sampling: two 30 h recordings at 15 s
@@ -419,6 +424,8 @@ def main_independent(args, done: dict, start: float) -> int:
         specs += [(base + 900, "coolant_coupling", False, 15.0), (base + 901, "slow_structural_mode", False, 15.0)]
     if args.only:
         specs = [x for x in specs if (x[1] or "none") in args.only]
+    if args.seeds:
+        specs = [x for x in specs if x[0] in args.seeds]
     if args.part:
         k, n = (int(v) for v in args.part.split("/"))
         specs = specs[k - 1::n]
@@ -450,7 +457,7 @@ def main_independent(args, done: dict, start: float) -> int:
     fl = fl_cases(args.data, args.seed, done, args.results, args.fl_part) if args.fl else []
     half = f"sealed half from seed {args.sealed_base}" if args.sealed else "development half"
     size = "full" if args.full else "default"
-    print(f"# diagnose benchmark, independent generator {args.generator} ({half}, {size}: step 120 s, "
+    print(f"# diagnose benchmark, independent generator {args.generator} ({half}, {size}: step {args.step_s:g} s, "
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(f"Amplitude rule: {independent.AMPLITUDE_RULE}.\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
