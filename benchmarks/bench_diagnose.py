@@ -32,6 +32,7 @@ Run::
     python benchmarks/bench_diagnose.py --full         # 33 hidden + 20 null at 120 s, 2 hidden at 15 s (~15 min)
     python benchmarks/bench_diagnose.py --fl --skip-synthetic   # only the semi-synthetic FL_THERMAL cases
     python benchmarks/bench_diagnose.py --full --results rows.jsonl   # a run cut off goes on where it stopped
+    python benchmarks/bench_diagnose.py --generator lumped --full --step-s 15 --seeds 0 511   # two cases, 15 s log
     python benchmarks/bench_diagnose.py --full --seed-offset 100      # an unseen set: every case seed shifted
 
 ``--results`` keeps one JSON line per finished case and skips the cases already in it, so a long run can be
