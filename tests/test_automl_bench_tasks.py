@@ -11,18 +11,11 @@ from thermodrift.core.automl import folds as inner
 from support import load_file
 
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks" / "bench_automl.py"
-
-
-def _bench(path=BENCH):
-    return load_file(path)
-
-
-def _variants():
-    return _bench(BENCH.parent / "bench_automl_variants.py")
+VARIANTS = BENCH.parent / "bench_automl_variants.py"
 
 
 def test_independent_task_holds_out_the_last_condition_long_enough_to_score(tmp_path):
-    bench = _bench()
+    bench = load_file(BENCH)
     # fd seed 1 ends with a short speed step (under 5 % of the rows): the condition before it is held out
     spec = bench.spec_of(bench.TASKS["fd_coolant_coupling_1"], 0, None, tmp_path)
     assert spec.dataset == "recording_file" and Path(spec.dataset_params["table"]).is_file()
@@ -42,7 +35,7 @@ def test_independent_task_holds_out_the_last_condition_long_enough_to_score(tmp_
 
 
 def test_indep_group_names_every_independent_task():
-    bench = _bench()
+    bench = load_file(BENCH)
     assert bench.GROUPS["indep"] and all("generator" in bench.TASKS[n] for n in bench.GROUPS["indep"])
     assert {bench.TASKS[n]["generator"] for n in bench.GROUPS["indep"]} == {"fd", "lumped"}
     assert all(bench.TASKS[n]["case_seed"] < 1000 for n in bench.GROUPS["indep"])  # development seeds only
@@ -70,7 +63,7 @@ def _cand(phase, fold_rmse, fold_pred, pred, model="mlr", features=None):
 
 
 def test_final_rules_replay_the_search_rules():
-    bench = _bench()
+    bench = load_file(BENCH)
     # fold truth 0 on three folds; a candidate predicting the constant v has fold RMSE |v|
     a = _cand("portfolio", [1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 2.0)                      # best a-priori
     b = _cand("portfolio", [1.1, 0.9, 1.05], [1.1, -0.9, 1.05], -1.0, model="lptn")     # not separable from a
@@ -87,7 +80,7 @@ def test_final_rules_replay_the_search_rules():
 
 
 def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
-    variants = _variants()
+    variants = load_file(VARIANTS)
     from thermodrift.core.automl import folds, search
     aggregate, earns = folds.aggregate, search.earns_its_place
     a = _cand("portfolio", [1.0, 1.0, 1.0], [1.0, 1.0, 1.0], 2.0)    # best a-priori
@@ -95,7 +88,7 @@ def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
     t = _cand("tpe", [0.5, 0.5, 0.5], [0.5, 0.5, 0.5], 1.0)          # tuned, better on every fold: earns its place
     saved = {"fold_truth": [np.zeros((2, 1))] * 3, "truth": np.zeros((2, 1)), "candidates": [a, c, t]}
     r = variants.replay(saved, [100, 200, 300])
-    assert r["search's rule"] == _bench().final_rules(saved)["one-SE inverse-MSE weights"][0] == 1.0  # t chosen
+    assert r["search's rule"] == load_file(BENCH).final_rules(saved)["one-SE inverse-MSE weights"][0] == 1.0  # t chosen
     assert r["a-priori only"] == 2.0  # without the tuned candidate, a is the choice
     assert saved["candidates"][2]["phase"] == "tpe" and saved["candidates"][0]["score"] == aggregate([1.0] * 3)
     assert folds.aggregate is aggregate and search.earns_its_place is earns  # the patches are undone
@@ -109,7 +102,7 @@ def test_rule_variants_replay_swaps_one_piece_and_restores_the_library():
 
 
 def test_larger_portfolios_of_the_variants_replay():
-    variants = _variants()
+    variants = load_file(VARIANTS)
     extra = variants.portfolio_variants()
     penalty = {(c.params["model"], c.params["model_params"]["alpha"])
                for c in extra["penalty path without a feature stage"]}

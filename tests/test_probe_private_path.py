@@ -12,14 +12,10 @@ from support import load_file
 PROBE = Path(__file__).resolve().parent.parent / "benchmarks" / "probe_private_path.py"
 
 
-def _probe():
-    return load_file(PROBE)
-
-
 def _case(rng, follows: bool):
     """10 fitted blocks of 60 samples at 120 s and a final block; the driver (W) is on in blocks 2, 5, 7 and in
     the final block; the residual (µm) is 0.01 µm/W through a 0.25 h lag, or not, plus 0.05 µm of noise."""
-    probe = _probe()
+    probe = load_file(PROBE)
     n, nb = 60, 10
     on = np.zeros(n * (nb + 1))
     for b in (2, 5, 7, nb):
