@@ -224,7 +224,9 @@ def fl_cases(data: Path, seed: int, done: dict | None = None, results: Path | No
         start = time.perf_counter()
         d = diagnose(Recording(frame, channels, rec.source + label[len("fl_thermal"):]), None, seed=seed)
         row = {"case": label, "found": [f["mechanism"] for f in d.findings], "seconds": time.perf_counter() - start,
-               "planted": mechanism, "control": control, "samples": len(rec)}
+               "planted": mechanism, "control": control, "samples": len(rec), "trace": _trace(d),
+               "validation_over_fitted": {c: v.get("validation_over_fitted")
+                                          for c, v in d.adequacy.get("channels", {}).items()}}
         print(f"{label:<60} {', '.join(row['found']) or 'none':<40} {row['seconds']:6.1f} s", file=sys.stderr,
               flush=True)
         if results:

@@ -174,6 +174,8 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             cal = dataclasses.replace(cal, network=adequacy.with_lags(cal.network, lags))
     else:
         cal = calibrate(fit_rec, network, free=[], intervals=False)
+    # the baseline's own free conductances: a mechanism that only adds one in parallel is not tested (screening)
+    free_paths = frozenset(p for e in cal.estimates for p in e.paths)
     channels = list(cal.sigma)
     kinds = [cal.channel_kind[c] for c in channels]
     sigma = np.array([cal.sigma[c] for c in channels])
@@ -193,7 +195,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
     screened = 0
     adequate: dict[str, Any] = {}
     for round_ in range(max_rounds):
-        cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only)
+        cands, skipped = screening.candidates(registry, base, scenario, channels, recording, only, free_paths)
         if round_ == 0:
             rejected += skipped
         cands = [c for c in cands if c.mechanism not in accepted]

@@ -165,9 +165,11 @@ def _boundary_offsets(network: Network, scenario, channels: list[str], measured:
 
 
 def candidates(registry, base: Baseline, scenario, channels: list[str], recording,
-               only: list[str] | None = None) -> tuple[list[Candidate], list[dict]]:
+               only: list[str] | None = None, free_paths: frozenset[str] = frozenset()
+               ) -> tuple[list[Candidate], list[dict]]:
     """Every (mechanism, place, shape) that the recording can drive and that changes some reading; and the
-    mechanisms rejected with their reason (missing or constant driver, no place in the network, no effect)."""
+    mechanisms rejected with their reason (missing or constant driver, no place in the network, no effect, or
+    nested in the baseline: :func:`nested`, given the baseline calibration's free parameter paths)."""
     out, rejected = [], []
     for mid in registry.names("mechanism"):
         if only is not None and mid not in only:
@@ -177,7 +179,7 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
         if reason:
             rejected.append({"mechanism": mid, "reason": f"skipped: {reason}"})
             continue
-        found, errors = 0, []
+        found, errors, parallel = 0, [], []
         for options in cls.places(base.network):
             if _names_lag_node(base.network, options):  # an expansion map's lagged reading, no part to act on
                 continue
@@ -192,15 +194,45 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
                 response = readings - base.raw
                 if not np.isfinite(response).all() or np.abs(response).max() < 1e-9:
                     continue
+                twins = nested(base.network, net, free_paths)
+                if twins:
+                    parallel += twins
+                    continue
                 place = _place_text(options)
                 shape_text = ", ".join(f"{k}={v:g}" for k, v in shape.items())
                 out.append(Candidate(mid, options, shape, net, free, response, cls.signature,
                                      f"{mid} at {place}" + (f" ({shape_text})" if shape else ""), cls))
                 found += 1
-        if not found:
+        if not found and parallel:
+            twins = ", ".join(dict.fromkeys(parallel))
+            rejected.append({"mechanism": mid, "reason": (
+                f"nested in the baseline: every conductance it adds runs parallel to one the baseline already fits "
+                f"({twins}), so fitting it only refits the baseline; testing it needs a network whose conductances "
+                "are known (--network spec.yaml)")})
+        elif not found:
             why = errors[0] if errors else "no place in this network where it changes any reading"
             rejected.append({"mechanism": mid, "reason": f"skipped: {why}"})
     return out, rejected
+
+
+def nested(base: Network, augmented: Network, free_paths: frozenset[str]) -> list[str]:
+    """The baseline edges whose free conductances (paths in ``free_paths``) the edges ``augmented`` adds run
+    parallel to, when adding those edges (constant G, the same two ends) is all that ``augmented`` changes; else
+    []. Two conductances in parallel sum, so such a mechanism is a change of the baseline's own parameters."""
+    if any(getattr(base, f) != getattr(augmented, f) for f in ("nodes", "advections", "sources", "outputs",
+                                                               "sensors")):
+        return []
+    have = {e.name: e for e in base.edges}
+    if any(e.name in have and e != have[e.name] for e in augmented.edges):
+        return []
+    twins = []
+    for e in (e for e in augmented.edges if e.name not in have):
+        twin = next((b for b in base.edges if {b.a, b.b} == {e.a, e.b} and f"edges.{b.name}.G_W_K" in free_paths),
+                    None)
+        if twin is None or e.G_rot_W_K:
+            return []
+        twins.append(twin.name)
+    return twins
 
 
 def _names_lag_node(network, options: dict[str, Any]) -> bool:
