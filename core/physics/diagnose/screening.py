@@ -169,7 +169,8 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
                ) -> tuple[list[Candidate], list[dict]]:
     """Every (mechanism, place, shape) that the recording can drive and that changes some reading; and the
     mechanisms rejected with their reason (missing or constant driver, no place in the network, no effect, or
-    nested in the baseline: :func:`nested`, given the baseline calibration's free parameter paths)."""
+    nested in the baseline at every place: :func:`nested`, given the baseline calibration's free parameter
+    paths; a place where it is nested is left out)."""
     out, rejected = [], []
     for mid in registry.names("mechanism"):
         if only is not None and mid not in only:
@@ -187,16 +188,16 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
                 try:
                     mech = cls(**options)
                     net, free = mech.declare(base.network, **shape)
+                    twins = nested(base.network, net, free_paths)
+                    if twins:  # not simulated: fitting it would only refit the baseline
+                        parallel += twins
+                        continue
                     readings = predict(net, scenario)[0][channels].to_numpy()
                 except InputError as exc:
                     errors.append(str(exc))
                     continue
                 response = readings - base.raw
                 if not np.isfinite(response).all() or np.abs(response).max() < 1e-9:
-                    continue
-                twins = nested(base.network, net, free_paths)
-                if twins:
-                    parallel += twins
                     continue
                 place = _place_text(options)
                 shape_text = ", ".join(f"{k}={v:g}" for k, v in shape.items())
