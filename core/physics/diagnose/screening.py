@@ -29,6 +29,7 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import predict
 from thermodrift.core.physics.diagnose.adequacy import is_lag_node
 from thermodrift.core.physics.diagnose.noise import NoiseModel
+from thermodrift.core.physics.mechanisms import added
 from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.synthetic import PT100_TOLERANCE
 
@@ -227,7 +228,7 @@ def nested(base: Network, augmented: Network, free_paths: frozenset[str]) -> lis
     if any(e.name in have and e != have[e.name] for e in augmented.edges):
         return []
     twins = []
-    for e in (e for e in augmented.edges if e.name not in have):
+    for e in added(base, augmented, "edges"):
         twin = next((b for b in base.edges if {b.a, b.b} == {e.a, e.b} and f"edges.{b.name}.G_W_K" in free_paths),
                     None)
         if twin is None or e.G_rot_W_K:
