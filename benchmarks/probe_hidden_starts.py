@@ -10,11 +10,18 @@ would keep if that start had been the declared one. Nothing in the finder change
 
     python benchmarks/probe_hidden_starts.py --jitter-seeds 1 3 4 5 6      # FL_THERMAL from the shared data folder
     python benchmarks/probe_hidden_starts.py --table my.csv --manifest my.yaml --jitter-seeds 1 2
+    python benchmarks/probe_hidden_starts.py --independent fd     # the development half of an independent generator
+
+With ``--independent`` it runs the development half of that generator (``benchmarks/independent``: 11 hidden-mechanism
+cases and 20 nulls) and prints, per case, the set kept from the declared start and from jitter seed 1 and the ratio
+of the two starts' held-out errors of the set kept from the declared start.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +32,8 @@ from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.recording import load_recording
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import independent  # noqa: E402 - the independent generators next to this script
 FL_TABLE = HERE.parent.parent / "shared" / "data" / "fl_thermal" / "data.xlsx"
 FL_MANIFEST = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
 
@@ -59,13 +68,34 @@ def kept(rows: list[dict]) -> int:
     return best["hidden"]
 
 
+def independent_half(generator: str, evaluations: int) -> None:
+    """The development half of ``generator``: the set kept from the declared start and from jitter seed 1, and the
+    spread of the declared set's held-out error over the two starts."""
+    print("| case | kept (declared) | kept (jitter 1) | held-out error, jitter 1 / declared (set kept) |")
+    print("|---|---:|---:|---:|")
+    for seed, hidden, constant in independent.case_list(False, 1, 20):
+        gen = independent.make_case(seed, hidden, constant_drivers=constant, generator=generator)
+        with tempfile.TemporaryDirectory() as folder:
+            recording = load_recording(*gen.write(Path(folder)))
+        declared, jittered = (held_out_errors(recording, s, evaluations) for s in (None, 1))
+        k = kept(declared)
+        i = [r["hidden"] for r in declared].index(k)
+        print(f"| {gen.name} | {k} | {kept(jittered)} | {jittered[i]['held_out'] / declared[i]['held_out']:.2f} |",
+              flush=True)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--table", type=Path, default=FL_TABLE)
     ap.add_argument("--manifest", type=Path, default=FL_MANIFEST)
     ap.add_argument("--jitter-seeds", nargs="*", type=int, default=[1, 2])
     ap.add_argument("--evaluations", type=int, default=200, help="as diagnose's baseline_evaluations")
+    ap.add_argument("--independent", choices=sorted(independent.GENERATORS),
+                    help="run the development half of this independent generator instead of one recording")
     args = ap.parse_args()
+    if args.independent:
+        independent_half(args.independent, args.evaluations)
+        return
     recording = load_recording(args.table, args.manifest)
     print("| start | " + " | ".join(f"{len(h)} hidden: held out / fitted" for h in adequacy.HIDDEN_OPTIONS)
           + " | kept |")
