@@ -5,8 +5,8 @@
 :data:`~thermodrift.core.physics.diagnose.adequacy.HIDDEN_OPTIONS` is calibrated on the rows before that block
 and scored on it (noise-weighted, temperature and displacement channels balanced). This probe repeats those
 calibrations from the declared start and from jittered starts (the calibration's own ``jitter_seed``) and prints,
-per start and hidden set, the held-out and the fitted error, the search's stop, and the set the rule in force
-would keep if that start had been the declared one. Nothing in the finder changes::
+per start and hidden set, the held-out and the fitted error and the set the rule in force would keep if that start
+had been the declared one (``choose_hidden`` with the start's ``jitter_seed``). Nothing in the finder changes::
 
     python benchmarks/probe_hidden_starts.py --jitter-seeds 1 3 4 5 6      # FL_THERMAL from the shared data folder
     python benchmarks/probe_hidden_starts.py --table my.csv --manifest my.yaml --jitter-seeds 1 2
@@ -26,7 +26,6 @@ from pathlib import Path
 
 import numpy as np
 
-from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import adequacy, final_cut, screening
 from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.recording import load_recording
@@ -38,34 +37,16 @@ FL_TABLE = HERE.parent.parent / "shared" / "data" / "fl_thermal" / "data.xlsx"
 FL_MANIFEST = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
 
 
-def held_out_errors(recording, jitter_seed: int | None, evaluations: int) -> list[dict]:
-    """Per hidden set: the held-out and fitted balanced errors (noise units) of the calibration from this start."""
+def hidden_table(recording, jitter_seed: int | None, evaluations: int) -> tuple[int, list[dict]]:
+    """The hidden-node count the adequacy step keeps and its table (held-out and fitted error per set, noise units)
+    when every calibration starts from ``jitter_seed`` (None: the declared start), on diagnose's inner split."""
     t = recording.time_s
     fit = t < final_cut(recording)
     inner_mask = fit & (t < final_cut(recording.select(fit)))
     inner, val = np.flatnonzero(inner_mask), np.flatnonzero(fit & ~inner_mask)
-    inner_rec, scenario = recording.select(inner_mask), Scenario.from_recording(recording)
-    out = []
-    for h in adequacy.HIDDEN_OPTIONS:
-        cal = calibrate(inner_rec, None, hidden_nodes=h, intervals=False, max_evaluations=evaluations,
-                        prior_strength=0.0, jitter_seed=jitter_seed)
-        channels = list(cal.sigma)
-        kinds = [cal.channel_kind[c] for c in channels]
-        sigma = np.array([cal.sigma[c] for c in channels])
-        measured = recording.data[channels].to_numpy(dtype=float)
-        readings = screening.baseline_of(cal.network, scenario, channels, measured, inner, sigma).readings
-        out.append({"hidden": len(h), "held_out": adequacy._balanced_error(measured, readings, sigma, kinds, val),
-                    "fitted": adequacy._balanced_error(measured, readings, sigma, kinds, inner), "stop": cal.stop})
-    return out
-
-
-def kept(rows: list[dict]) -> int:
-    """The hidden set the rule in force keeps (a larger set must beat the kept one by MIN_GAIN)."""
-    best = rows[0]
-    for r in rows[1:]:
-        if r["held_out"] < (1 - adequacy.MIN_GAIN) * best["held_out"]:
-            best = r
-    return best["hidden"]
+    hidden, table, _ = adequacy.choose_hidden(recording, inner, val, Scenario.from_recording(recording), evaluations,
+                                              screening.baseline_of, jitter_seed=jitter_seed)
+    return len(hidden), table
 
 
 def independent_half(generator: str, evaluations: int) -> None:
@@ -77,11 +58,10 @@ def independent_half(generator: str, evaluations: int) -> None:
         gen = independent.make_case(seed, hidden, constant_drivers=constant, generator=generator)
         with tempfile.TemporaryDirectory() as folder:
             recording = load_recording(*gen.write(Path(folder)))
-        declared, jittered = (held_out_errors(recording, s, evaluations) for s in (None, 1))
-        k = kept(declared)
-        i = [r["hidden"] for r in declared].index(k)
-        print(f"| {gen.name} | {k} | {kept(jittered)} | {jittered[i]['held_out'] / declared[i]['held_out']:.2f} |",
-              flush=True)
+        (k, declared), (k_jittered, jittered) = (hidden_table(recording, s, evaluations) for s in (None, 1))
+        i = [r["hidden_nodes"] for r in declared].index(k)
+        print(f"| {gen.name} | {k} | {k_jittered} | "
+              f"{jittered[i]['heldout_error'] / declared[i]['heldout_error']:.2f} |", flush=True)
 
 
 def main() -> None:
@@ -101,11 +81,10 @@ def main() -> None:
           + " | kept |")
     print("|---|" + "---:|" * (len(adequacy.HIDDEN_OPTIONS) + 1))
     for seed in [None, *args.jitter_seeds]:
-        rows = held_out_errors(recording, seed, args.evaluations)
-        cells = [f"{r['held_out']:.3g} / {r['fitted']:.5g}" + ("" if r["stop"] == "tolerance" else f" ({r['stop']})")
-                 for r in rows]
-        print(f"| {'declared' if seed is None else f'jitter {seed}'} | " + " | ".join(cells)
-              + f" | {kept(rows)} |", flush=True)
+        k, rows = hidden_table(recording, seed, args.evaluations)
+        cells = [f"{r['heldout_error']:.3g} / {r['fitted_error']:.5g}" for r in rows]
+        print(f"| {'declared' if seed is None else f'jitter {seed}'} | " + " | ".join(cells) + f" | {k} |",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -55,16 +55,17 @@ def _balanced_error(measured: np.ndarray, readings: np.ndarray, sigma: np.ndarra
 
 
 def choose_hidden(recording, inner_rows: np.ndarray, val_rows: np.ndarray, scenario, evaluations: int,
-                  baseline_of) -> tuple[tuple[float, ...], list[dict[str, Any]], Any]:
+                  baseline_of, jitter_seed: int | None = None) -> tuple[tuple[float, ...], list[dict[str, Any]], Any]:
     """The hidden nodes (start time constants, h) of the auto baseline that predicts ``val_rows`` best when
     calibrated on ``inner_rows`` (indices into ``recording``), the table of every set tried (held-out error
     in noise units) and that calibration. ``baseline_of`` is the screening's linear refit
-    (:func:`.screening.baseline_of`)."""
+    (:func:`.screening.baseline_of`); ``jitter_seed`` starts every calibration from a jittered start instead of the
+    declared one (the calibration's own jitter; ``benchmarks/probe_hidden_starts.py``)."""
     inner_rec = recording.select(np.isin(np.arange(len(recording)), inner_rows))
     table, best = [], None
     for h in HIDDEN_OPTIONS:
         cal = calibrate(inner_rec, None, hidden_nodes=h, intervals=False, max_evaluations=evaluations,
-                        prior_strength=0.0)
+                        prior_strength=0.0, jitter_seed=jitter_seed)
         channels = list(cal.sigma)
         kinds = [cal.channel_kind[c] for c in channels]
         sigma = np.array([cal.sigma[c] for c in channels])
