@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from thermodrift.core.physics.diagnose import adequacy, final_cut, screening
+from thermodrift.core.physics.diagnose import adequacy, inner_split, screening
 from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.recording import load_recording
 
@@ -40,9 +40,7 @@ FL_MANIFEST = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
 def hidden_table(recording, jitter_seed: int | None, evaluations: int) -> tuple[int, list[dict]]:
     """The hidden-node count the adequacy step keeps and its table (held-out and fitted error per set, noise units)
     when every calibration starts from ``jitter_seed`` (None: the declared start), on diagnose's inner split."""
-    t = recording.time_s
-    fit = t < final_cut(recording)
-    inner_mask = fit & (t < final_cut(recording.select(fit)))
+    fit, inner_mask = inner_split(recording)
     inner, val = np.flatnonzero(inner_mask), np.flatnonzero(fit & ~inner_mask)
     hidden, table, _ = adequacy.choose_hidden(recording, inner, val, Scenario.from_recording(recording), evaluations,
                                               screening.baseline_of, jitter_seed=jitter_seed)

@@ -11,7 +11,7 @@ import pytest
 
 from thermodrift.core import physics
 from thermodrift.core.physics.calibration import predict
-from thermodrift.core.physics.diagnose import adequacy, final_cut, screening
+from thermodrift.core.physics.diagnose import adequacy, inner_split, screening
 from thermodrift.core.physics.diagnose.concealed import concealed_case
 from thermodrift.core.physics.network import TemperatureSensor
 from thermodrift.core.physics.scenarios import Scenario
@@ -24,9 +24,7 @@ def null_case():
 
 
 def _split(rec):
-    t = rec.time_s
-    fit = t < final_cut(rec)
-    inner = fit & (t < final_cut(rec.select(fit)))
+    fit, inner = inner_split(rec)
     return np.flatnonzero(inner), np.flatnonzero(fit & ~inner)
 
 

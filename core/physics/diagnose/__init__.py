@@ -142,6 +142,14 @@ def final_cut(recording, share: float = FINAL_SHARE) -> float:
     return target
 
 
+def inner_split(recording) -> tuple[np.ndarray, np.ndarray]:
+    """Boolean row masks: the fitted rows (before the final block, :func:`final_cut`) and, among them, the rows
+    before the inner validation block (the same cut of the fitted rows)."""
+    t = recording.time_s
+    fit_rows = t < final_cut(recording)
+    return fit_rows, fit_rows & (t < final_cut(recording.select(fit_rows)))
+
+
 def diagnose(recording, network: Network | None = None, *, registry=None, seed: int = 0, alpha: float = 0.01,
              top: int = 3, max_rounds: int = 3, bootstrap: int = 200, baseline_evaluations: int = 200,
              fit_evaluations: int = 40, only: list[str] | None = None) -> Diagnosis:
@@ -153,10 +161,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         from thermodrift.core import registry as reg_module
         registry = reg_module.default()
     t = recording.time_s
-    fit_rows = t < final_cut(recording)
+    fit_rows, inner_rows = inner_split(recording)
     fit_rec = recording.select(fit_rows)
     scenario = Scenario.from_recording(recording)
-    inner_rows = fit_rows & (t < final_cut(fit_rec))
     inner, val_rows = np.flatnonzero(inner_rows), np.flatnonzero(fit_rows & ~inner_rows)
     structure: list[dict[str, Any]] = []
     lag_table: list[dict[str, Any]] = []
