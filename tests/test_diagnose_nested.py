@@ -1,8 +1,11 @@
-"""A mechanism that only adds conductances parallel to ones the baseline already fits is a refit of the baseline,
-not missing physics: screening reports it as nested and does not test it; against a network whose conductances
-are fixed it is tested as before."""
+"""A mechanism that only adds conductances parallel to ones the baseline already fits, or a tilt between two nodes
+a displacement channel already reads, is a refit of the baseline, not missing physics: screening reports it as
+nested and does not test it; against a network whose conductances are fixed, or whose expansion map leaves a node
+out, it is tested as before."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 import pytest
@@ -55,4 +58,32 @@ def test_screening_reports_nested_mechanisms_and_tests_them_when_conductances_ar
     assert cands  # the others are still screened
     fixed, rejected_fixed = _screen(rec, net, frozenset())
     assert {"ambient_coupling", "radiation"} <= {c.mechanism for c in fixed}
-    assert not any(r["reason"].startswith("nested") for r in rejected_fixed)
+    # a tilt between nodes the expansion map reads stays nested: the linear refit solves those sensitivities
+    assert [r["mechanism"] for r in rejected_fixed if r["reason"].startswith("nested")] == ["thermal_tilt"]
+
+
+def test_a_tilt_between_nodes_the_expansion_map_reads_is_reported_nested_and_tested_once_a_node_is_left_out(
+        auto_case):
+    rec, net, free = auto_case
+    tilt = registry_module.default().get("mechanism", "thermal_tilt").factory
+    assert tilt.places(net) == [] and tilt.unplaced(net)  # the auto map reads every node: no new pair
+    reasons = {r["mechanism"]: r["reason"] for r in _screen(rec, net, free)[1]}
+    assert reasons["thermal_tilt"].startswith("nested in the baseline") and "sensitivities" in reasons["thermal_tilt"]
+    out = net.outputs[0]
+    cold = next(n for n in out.sensitivity_um_K if net.node(n).group in ("structure", "table"))
+    partial = net.replace(dataclasses.replace(out, sensitivity_um_K={n: k for n, k in out.sensitivity_um_K.items()
+                                                                     if n != cold}))
+    assert tilt.places(partial) and tilt.unplaced(partial) is None
+    cands, rejected = _screen(rec, partial, free)
+    assert any(c.mechanism == "thermal_tilt" and c.options["cold"] == cold for c in cands)
+    assert "thermal_tilt" not in {r["mechanism"] for r in rejected}
+
+
+def test_a_tilt_without_a_cold_node_is_skipped_with_the_sensor_it_needs():
+    tilt = registry_module.default().get("mechanism", "thermal_tilt").factory
+    net = physics.load_network("demo_spindle")
+    cold = [n.name for n in net.nodes if n.group in ("structure", "table")]
+    assert tilt.places(net) and tilt.unplaced(net) is None
+    hot_only = net.replace(*[dataclasses.replace(n, group="housing") for n in net.nodes if n.name in cold])
+    assert tilt.places(hot_only) == []
+    assert tilt.unplaced(hot_only).startswith("skipped: the network has no structure or table node")

@@ -146,6 +146,13 @@ class Mechanism:
         """Option sets, one per place in ``network`` where the mechanism can act (default: its default place)."""
         return [{}]
 
+    @classmethod
+    def unplaced(cls, network: Network) -> str | None:
+        """The reason the diagnosis reports when :meth:`places` is empty in ``network``, if the mechanism can say
+        more than that it has no place: "skipped: …" (the parts it acts on are missing) or "nested in the baseline:
+        …" (acting there would only duplicate what the network already has); else None."""
+        return None
+
     def declare(self, network: Network, **params: float) -> tuple[Network, list[FreeParameter]]:
         """:meth:`apply` plus the free parameters it introduced, checked against the network's field limits."""
         out = self.apply(network, **params)

@@ -45,6 +45,20 @@ class ThermalTilt(Mechanism):
                     if not (h in known and c in known)]
         return out[:12]
 
+    @classmethod
+    def unplaced(cls, network):
+        hot = nodes_of(network, ("housing", "motor", "bearing"))[:3]
+        cold = nodes_of(network, ("structure", "table"))[:3]
+        if cls.places(network):
+            return None
+        if not cold or not hot:
+            part = ("structure or table node (no sensor on the column or bed)" if not cold
+                    else "housing, motor or bearing node (no sensor on the spindle)")
+            return f"skipped: the network has no {part} to take the hot–cold difference of a tilt"
+        return (f"nested in the baseline: every pair of its hot ({', '.join(hot)}) and cold ({', '.join(cold)}) "
+                "nodes already expands into each axis, so a tilt is a combination of sensitivities the baseline "
+                "fits; testing it needs an expansion map that leaves one node of the pair out (--network spec.yaml)")
+
     def _declare(self, before, after, p, o):
         out = []
         for n in changed_outputs(before, after):

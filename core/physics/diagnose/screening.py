@@ -171,7 +171,8 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
     """Every (mechanism, place, shape) that the recording can drive and that changes some reading; and the
     mechanisms rejected with their reason (missing or constant driver, no place in the network, no effect, or
     nested in the baseline at every place: :func:`nested`, given the baseline calibration's free parameter
-    paths; a place where it is nested is left out)."""
+    paths, a place where it is nested being left out; or no place because acting anywhere would only duplicate
+    the baseline, :meth:`~thermodrift.core.physics.mechanisms.Mechanism.unplaced`)."""
     out, rejected = [], []
     for mid in registry.names("mechanism"):
         if only is not None and mid not in only:
@@ -211,6 +212,8 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
                 f"nested in the baseline: every conductance it adds runs parallel to one the baseline already fits "
                 f"({twins}), so fitting it only refits the baseline; testing it needs a network whose conductances "
                 "are known (--network spec.yaml)")})
+        elif not found and (why := cls.unplaced(base.network)):
+            rejected.append({"mechanism": mid, "reason": why})
         elif not found:
             why = errors[0] if errors else "no place in this network where it changes any reading"
             rejected.append({"mechanism": mid, "reason": f"skipped: {why}"})
