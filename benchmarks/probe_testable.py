@@ -11,6 +11,7 @@ prints, per mechanism, the cases where it is testable, nested or skipped::
 
     python benchmarks/probe_testable.py                        # both independent generators, development half
     python benchmarks/probe_testable.py --generator fd --per-mechanism 1
+    python benchmarks/probe_testable.py --only ambient_coupling thermal_tilt --per-mechanism 40
 
 The ``auto`` baseline here has the default hidden nodes; the hidden nodes and lagged readings the adequacy step may
 add change nothing in the count (each hidden node has its own free conductance to the ambient and is read by every
@@ -64,9 +65,10 @@ def main(argv=None) -> int:
     ap.add_argument("--sealed-base", type=int, metavar="SEED",
                     help="a sealed range instead of the development half (the recordings' sensors and drivers only "
                          "are read, no diagnosis runs)")
+    ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="only the hidden cases of these mechanisms")
     args = ap.parse_args(argv)
     cases = [(s, h) for s, h, _ in independent.case_list(args.sealed_base is not None, args.per_mechanism, 0,
-                                                         args.sealed_base) if h]
+                                                         args.sealed_base) if h and (not args.only or h in args.only)]
     print("| generator | mechanism | cases | testable | nested | skipped | a reason |")
     print("|---|---|---:|---:|---:|---:|---|")
     for generator in args.generator:
