@@ -1,7 +1,9 @@
 """preload_feedback — thermally induced bearing preload: a warmer shaft tightens the bearings, which heat more.
 
 Adds at each bearing node a heat term gain·(n/n_ref)·(T_hot − T_cold), where hot is the shaft and cold the
-housing (options ``hot``/``cold``, default the first shaft and first housing node).
+housing (options ``hot``/``cold``, default the first shaft and first housing node). In a network with no housing
+or structure node (an ``auto`` network whose every sensor rises with the spindle calls its housing sensors
+bearings) the places take the bearing node itself as the cold side.
 
 Parameters: ``gain_W_K`` = 1.0 [0, 10] W/K per bearing at the reference speed (neutral 0).
 Direction: higher bearing temperatures and drift at high speed, growing super-linearly (self-reinforcing).
@@ -36,9 +38,11 @@ class PreloadFeedback(Mechanism):
 
     @classmethod
     def places(cls, network):
-        if not network.nodes_in("shaft") or not network.nodes_in("housing", "structure"):
+        if not network.nodes_in("shaft"):
             return []
-        return [{"nodes": [n]} for n in nodes_of(network, ("bearing",))]
+        if network.nodes_in("housing", "structure"):
+            return [{"nodes": [n]} for n in nodes_of(network, ("bearing",))]
+        return [{"nodes": [n], "cold": n} for n in nodes_of(network, ("bearing",))]
 
     def _declare(self, before, after, p, o):
         sources = added(before, after, "sources")

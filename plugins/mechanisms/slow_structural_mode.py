@@ -1,7 +1,8 @@
 """slow_structural_mode — a massive, slowly warming part whose expansion acts against the fast path.
 
 Adds a node ``slow_structure`` (group structure) joined to the target node (default: the first structure,
-else housing node) by ``G_W_K`` and to ambient by ``ambient_W_K`` (option), with capacity
+else housing node; places: the structure, housing and table nodes, else the bearing nodes of a network that has
+none) by ``G_W_K`` and to ambient by ``ambient_W_K`` (option), with capacity
 τ·(G_W_K + ambient_W_K), and a sensitivity ``gain_um_K`` on the outputs along ``axes`` (default ``z``).
 
 Parameters: ``tau_h`` = 4 [0.5, 24] h, ``gain_um_K`` = −2.0 [−10, 10] µm/K (neutral 0), ``G_W_K`` = 4 [0, 50] W/K
@@ -45,7 +46,9 @@ class SlowStructuralMode(Mechanism):
     @classmethod
     def places(cls, network):
         axes = list(dict.fromkeys(o.axis for o in network.outputs))
-        nodes = nodes_of(network, ("structure", "housing", "table"))
+        # a network whose every node rises with the spindle (all labelled ``bearing``) still has a slow mass
+        # behind its sensors: its nodes are the places then
+        nodes = nodes_of(network, ("structure", "housing", "table")) or nodes_of(network, ("bearing",))
         return [{"nodes": [n], "axes": [a]} for n in nodes for a in axes][:8] or [{}]
 
     def _declare(self, before, after, p, o):
