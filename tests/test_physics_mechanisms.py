@@ -189,6 +189,22 @@ def test_ambient_coupling_has_places_on_a_network_whose_every_node_is_a_bearing(
     assert len(coupled.edges) == len(all_bearing.edges) + 1
 
 
+def test_preload_and_slow_mode_have_places_on_a_network_whose_measured_nodes_are_all_bearings(reg, base):
+    # an auto network whose every sensor rises with the spindle: measured nodes "bearing", hidden ones "shaft"
+    all_bearing = base.replace(*[dataclasses.replace(n, group="bearing") for n in base.nodes if n.group != "shaft"])
+    for mid in ("preload_feedback", "slow_structural_mode"):
+        cls = reg.get("mechanism", mid).factory
+        places = cls.places(all_bearing)
+        assert places and all(p["nodes"][0] in all_bearing.nodes_in("bearing") for p in places)
+        for place in places:
+            changed = cls(**place).apply(all_bearing, **{p.name: p.default for p in cls.parameters})
+            on, off = sim(changed).measure(None).to_numpy(), sim(all_bearing).measure(None).to_numpy()
+            assert np.max(np.abs(on - off)) > 0.05
+    preload = reg.get("mechanism", "preload_feedback").factory
+    assert all(p["cold"] == p["nodes"][0] for p in preload.places(all_bearing))  # the bearing's own housing reading
+    assert all("cold" not in p for p in preload.places(base))  # with a housing node nothing changes
+
+
 def test_centrifugal_growth_of_several_um_is_within_its_physical_bounds(reg, base):
     cls = reg.get("mechanism", "centrifugal_growth").factory
     _, free = cls(axes=["z"]).declare(base, um_at_ref=1.0)
