@@ -58,10 +58,14 @@ class _Broken(Mechanism):
         e = after.edges[0]
         return [FreeParameter("G_W_K", (f"edges.{e.name}.G_W_K",), p["G_W_K"], 0.1, 10.0, "W/K")]
 
+    @classmethod
+    def unplaced(cls, network):
+        return "it would not fit here"  # a reason where it has places, and not in the report's words
+
 
 def test_the_mechanism_checks_catch_a_broken_mechanism():
     with pytest.raises(ConformanceError) as err:
         check_mechanism(_Broken)
     text = str(err.value)
     assert "check_signature_and_drivers" in text and "check_neutral_changes_nothing" in text
-    assert "check_declares_free_parameters" in text
+    assert "check_declares_free_parameters" in text and "check_unplaced_reason" in text

@@ -2,8 +2,9 @@
 
 A mechanism must: name a residual signature and driver roles that exist; declare, at every place it offers,
 free parameters whose paths exist in the applied network and hold the declared start values, with bounds
-inside the network fields' physical limits; leave the simulation unchanged at its neutral values; and say why
-a recording whose driver channel is missing or constant cannot drive it.
+inside the network fields' physical limits; leave the simulation unchanged at its neutral values; say why
+a recording whose driver channel is missing or constant cannot drive it; and, where it explains a network without
+a place for it (``unplaced``), do so in the report's words.
 """
 
 from __future__ import annotations
@@ -124,5 +125,22 @@ def check_missing_drivers_named(factory: Factory, params: dict) -> None:
         assert reason is None, f"varying driver channels were refused: {reason}"
 
 
+def check_unplaced_reason(factory: Factory, params: dict) -> None:
+    """``unplaced(network)`` is None, or, where ``places`` is empty, a reason the diagnosis can report as it is:
+    "skipped: …" or "nested in the baseline: …" (on the reference network and on the same network with every node
+    but the shaft labelled a bearing, as an ``auto`` network whose every sensor rises with the spindle is)."""
+    import dataclasses
+
+    net = _network()
+    all_bearing = net.replace(*[dataclasses.replace(n, group="bearing") for n in net.nodes if n.group != "shaft"])
+    for network in (net, all_bearing):
+        why = factory.unplaced(network)
+        if why is None:
+            continue
+        assert not factory.places(network), f"unplaced() gives a reason where places() has some: {why}"
+        assert isinstance(why, str) and why.startswith(("skipped: ", "nested in the baseline: ")), (
+            f"unplaced() must start 'skipped: ' or 'nested in the baseline: ', not {why!r}")
+
+
 MECHANISM_CHECKS = (check_signature_and_drivers, check_declares_free_parameters, check_neutral_changes_nothing,
-                    check_missing_drivers_named)
+                    check_missing_drivers_named, check_unplaced_reason)
