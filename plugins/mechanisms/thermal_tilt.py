@@ -52,9 +52,8 @@ class ThermalTilt(Mechanism):
         if cls.places(network):
             return None
         if not cold or not hot:
-            part = ("structure or table node (no sensor on the column or bed)" if not cold
-                    else "housing, motor or bearing node (no sensor on the spindle)")
-            return f"skipped: the network has no {part} to take the hot–cold difference of a tilt"
+            part = "structure or table" if not cold else "housing, motor or bearing"
+            return f"skipped: the network has no {part} node to take the hot–cold difference of a tilt"
         return (f"nested in the baseline: every pair of its hot ({', '.join(hot)}) and cold ({', '.join(cold)}) "
                 "nodes already expands into each axis, so a tilt is a combination of sensitivities the baseline "
                 "fits; testing it needs an expansion map that leaves one node of the pair out (--network spec.yaml)")
