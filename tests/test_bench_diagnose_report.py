@@ -14,9 +14,9 @@ BENCHMARK = load_file(BENCH / "bench_diagnose.py")
 
 def _row(seed, hidden, top1, cut, samples=901):
     return {"case": f"fd_{hidden}_{seed}", "seed": seed, "hidden": hidden, "top1": top1,
-            "findings": int(top1 != "none"), "seconds": 5.0, "cut": cut, "cut_excess": cut, "samples": samples, "share": 0.3, "equivalent": False,
-            "param_error": None, "localisation": None, "cut_channel": "disp_z_um", "misfit_over_noise": 2.0,
-            "heldout_over_fit": 1.0, "acf1": 0.5, "why_not_hidden": "", "confidence": None}
+            "findings": int(top1 != "none"), "seconds": 5.0, "cut": cut, "cut_excess": cut, "samples": samples,
+            "share": 0.3, "equivalent": False, "param_error": None, "localisation": None, "cut_channel": "disp_z_um",
+            "misfit_over_noise": 2.0, "heldout_over_fit": 1.0, "acf1": 0.5, "why_not_hidden": "", "confidence": None}
 
 
 def test_the_cut_per_pass_leaves_out_the_run_time_cases():

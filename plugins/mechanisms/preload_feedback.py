@@ -40,9 +40,10 @@ class PreloadFeedback(Mechanism):
     def places(cls, network):
         if not network.nodes_in("shaft"):
             return []
+        bearings = nodes_of(network, ("bearing",))
         if network.nodes_in("housing", "structure"):
-            return [{"nodes": [n]} for n in nodes_of(network, ("bearing",))]
-        return [{"nodes": [n], "cold": n} for n in nodes_of(network, ("bearing",))]
+            return [{"nodes": [n]} for n in bearings]
+        return [{"nodes": [n], "cold": n} for n in bearings]
 
     def _declare(self, before, after, p, o):
         sources = added(before, after, "sources")

@@ -16,6 +16,9 @@ from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.physics.mechanisms import (FreeParameter, Mechanism, Parameter, changed_outputs, nodes_of,
                                                  target_nodes, target_outputs)
 
+HOT_GROUPS = ("housing", "motor", "bearing")  # the warm side of a tilt
+COLD_GROUPS = ("structure", "table")          # the side it bends against
+
 
 class ThermalTilt(Mechanism):
     id = "thermal_tilt"
@@ -24,8 +27,8 @@ class ThermalTilt(Mechanism):
     signature = "X/Y channels follow a temperature difference, not a mean"
 
     def _apply(self, network, p, o):
-        hot = target_nodes(network, self.id, o["hot"], ("housing", "motor", "bearing"))[0]
-        cold = target_nodes(network, self.id, o["cold"], ("structure", "table"))[0]
+        hot = target_nodes(network, self.id, o["hot"], HOT_GROUPS)[0]
+        cold = target_nodes(network, self.id, o["cold"], COLD_GROUPS)[0]
         key = f"{hot}/{cold}"
         names = target_outputs(network, self.id, o["axes"])
         return network.replace(*[dataclasses.replace(
@@ -36,8 +39,7 @@ class ThermalTilt(Mechanism):
     def places(cls, network):
         # A pair whose nodes both expand into the axis already is no new physics: the difference is a
         # combination of the sensitivities the network has.
-        hot = nodes_of(network, ("housing", "motor", "bearing"))
-        cold = nodes_of(network, ("structure", "table"))
+        hot, cold = nodes_of(network, HOT_GROUPS), nodes_of(network, COLD_GROUPS)
         out = []
         for a in dict.fromkeys(o.axis for o in network.outputs):
             known = {n for o in network.outputs if o.axis == a for n in o.sensitivity_um_K}
@@ -47,10 +49,9 @@ class ThermalTilt(Mechanism):
 
     @classmethod
     def unplaced(cls, network):
-        hot = nodes_of(network, ("housing", "motor", "bearing"))[:3]
-        cold = nodes_of(network, ("structure", "table"))[:3]
         if cls.places(network):
             return None
+        hot, cold = nodes_of(network, HOT_GROUPS)[:3], nodes_of(network, COLD_GROUPS)[:3]
         if not cold or not hot:
             part = "structure or table" if not cold else "housing, motor or bearing"
             return f"skipped: the network has no {part} node to take the hot–cold difference of a tilt"
