@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from thermodrift.core import limits
+from thermodrift.core.recording import file_checks
 from thermodrift.core.errors import InputError
 from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording
 
@@ -184,7 +184,7 @@ def read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> Manifest
     if not Path(path).exists():
         raise InputError("manifest file not found", file=file,
                          hint="check the path of the YAML manifest that gives every column a role")
-    limits.check_manifest_file(Path(path))
+    file_checks.check_manifest_file(Path(path))
     try:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
@@ -298,11 +298,11 @@ def _read_table(path: Path, sheet: str | None) -> tuple[list[str], pd.DataFrame,
     file = str(path)
     suffix = path.suffix.lower()
     if path.is_dir():
-        limits.check_path(path, "table")
+        file_checks.check_path(path, "table")
     if suffix not in _TABLE_SUFFIXES:
         raise InputError(f"unsupported table type {suffix or '(no suffix)'!r}", file=file,
                          hint="save the table as .csv, .parquet or .xlsx")
-    limits.check_table_file(path)  # bounded time and memory before pandas reads anything
+    file_checks.check_table_file(path)  # bounded time and memory before pandas reads anything
     note = None
     if suffix == ".csv":
         header, body = _read_csv(path)

@@ -1,4 +1,5 @@
-"""Sanity checks on an input file before a parser sees it, so bad input costs bounded time and memory.
+"""The recording loader's file checks: a table or manifest file looked at before a parser sees it, so bad input costs
+bounded time and memory.
 
 pandas and openpyxl read a whole line (or file) into memory before they can complain: a 115 MB CSV on one
 line or 2 GB of NUL bytes would take gigabytes. :func:`check_table_file` looks at the file in fixed-size blocks
