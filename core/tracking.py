@@ -35,15 +35,15 @@ from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 
 from thermodrift.core import artifacts, deployment
+from thermodrift.core.tracking_faults import DEFAULT_URI
 
 PARENT_ENV = "THERMODRIFT_PARENT_RUN_ID"
-DEFAULT_URI = "sqlite:///mlflow.db"
 TAGS = ("dataset", "selector", "model", "optimizer", "split", "ablation")
 FIGURES = "figures"  # artifact folder of a job run's figures
 
 
 def setup(uri: str | None, experiment: str) -> str:
-    """Point MLflow at ``uri`` (default ``sqlite:///mlflow.db``) with telemetry off; return the experiment id."""
+    """Point MLflow at ``uri`` (default :data:`DEFAULT_URI`) with telemetry off; return the experiment id."""
     os.environ.setdefault("MLFLOW_DISABLE_TELEMETRY", "true")
     for name in ("mlflow", "alembic"):  # schema-migration and "creating experiment" chatter
         logging.getLogger(name).setLevel(logging.WARNING)

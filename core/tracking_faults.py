@@ -16,6 +16,8 @@ import urllib.request
 
 from thermodrift.core.errors import InputError
 
+DEFAULT_URI = "sqlite:///mlflow.db"  # where runs land when no tracking URI is given (conf/config.yaml says the same)
+
 CHECK_TIMEOUT_S = 3.0
 
 
@@ -57,7 +59,7 @@ def check(uri: str | None) -> None:
     except (urllib.error.URLError, OSError) as exc:
         problem = str(getattr(exc, "reason", exc))
     raise InputError(f"the MLflow tracking server at {uri} does not answer ({problem})",
-                     hint="start it (mlflow server ...), or set tracking.uri=sqlite:///mlflow.db")
+                     hint=f"start it (mlflow server ...), or set tracking.uri={DEFAULT_URI}")
 
 
 def lost(uri: str, study_name: str, storage: str | None, exc: BaseException) -> InputError:

@@ -18,6 +18,7 @@ import argparse
 import json
 from pathlib import Path
 
+from thermodrift.core.cli import options
 from thermodrift.core.errors import InputError
 
 
@@ -27,7 +28,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--network", default="auto",
                         help="'auto' (baseline from the manifest alone, default), a spec YAML or a name in "
                              "conf/network")
-    parser.add_argument("--out", default="calibration", help="output folder (default: ./calibration)")
+    options.add_out(parser, "output folder", default="calibration")
     parser.add_argument("--targets", nargs="+", default=None, metavar="CHANNEL",
                         help="displacement channels to fit (default: all)")
     parser.add_argument("--free", action="append", default=None, metavar="PATTERN",
@@ -40,7 +41,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                         help="starts of the search (the first at the start values, the rest jittered; default 3)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the jittered starts (default 0)")
     parser.add_argument("--level", type=float, default=0.95, help="confidence level of the intervals (default 0.95)")
-    parser.add_argument("--tracking-uri", default=None, help="MLflow tracking URI to log the run to (default: none)")
+    options.add_tracking_uri(parser, optional=True)
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 
 

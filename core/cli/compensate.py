@@ -14,6 +14,8 @@ import csv
 import sys
 from pathlib import Path
 
+from thermodrift.core.cli import options
+
 FORMAT_HELP = "csv (default): time_s, <target>_um, <target>_raw_um, <target>_status; siemens, fanuc, beckhoff"
 
 
@@ -22,7 +24,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--input", required=True, help="table of input rows (.csv, .parquet, .xlsx), or - for CSV "
                                                        "rows on stdin")
     parser.add_argument("--manifest", required=True, help="YAML manifest naming the table's columns and units")
-    parser.add_argument("--out", required=True, help="values to write (CSV), or - for stdout")
+    options.add_out(parser, "values to write (CSV), or - for stdout")
     parser.add_argument("--cnc", default="csv", choices=("csv", "siemens", "fanuc", "beckhoff"), help=FORMAT_HELP)
     parser.add_argument("--audit", default=None, help="JSON lines: every written value with inputs, raw "
                                                       "prediction, limits and reasons")

@@ -18,6 +18,7 @@ import shlex
 import sys
 from pathlib import Path
 
+from thermodrift.core.cli import options
 from thermodrift.core.errors import InputError
 
 
@@ -26,8 +27,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--manifest", required=True, help="manifest YAML of the table")
     parser.add_argument("--network", default="auto",
                         help="'auto' (baseline from the manifest, default), a spec YAML or a name in conf/network")
-    parser.add_argument("--out", default="diagnosis", help="output folder (default: ./diagnosis)")
-    parser.add_argument("--tracking-uri", default=None, help="MLflow tracking URI to log the run to (default: none)")
+    options.add_out(parser, "output folder", default="diagnosis")
+    options.add_tracking_uri(parser, optional=True)
     parser.add_argument("--seed", type=int, default=0, help="seed of the block bootstrap (default 0)")
     parser.add_argument("--alpha", type=float, default=0.01,
                         help="family-wise level of the likelihood-ratio tests, Bonferroni-corrected (default 0.01)")

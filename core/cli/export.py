@@ -12,11 +12,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from thermodrift.core.cli import options
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("run_id", metavar="RUN_ID", help="the MLflow run id that `thermodrift run` printed")
-    parser.add_argument("--out", required=True, help="folder to write the package into")
-    parser.add_argument("--tracking-uri", default="sqlite:///mlflow.db", help="MLflow tracking URI")
+    options.add_out(parser, "folder to write the package into")
+    options.add_tracking_uri(parser)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 
+from thermodrift.core.cli import options
+
 
 def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("ref", help="sweep id (the multirun/<id> folder name) or the sweep's parent MLflow run id")
-    parser.add_argument("--tracking-uri", default="sqlite:///mlflow.db", help="MLflow tracking URI")
-    parser.add_argument("--out", default=None, help="output folder (default reports/<sweep id>)")
+    options.add_tracking_uri(parser)
+    options.add_out(parser, "output folder", default="reports/<sweep id>")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -20,7 +22,7 @@ def run(args: argparse.Namespace) -> int:
     client = MlflowClient(args.tracking_uri)
     parent = report.parent_run(client, args.ref)
     sweep = parent.data.tags.get("sweep_id") or parent.info.run_id
-    out = args.out or f"reports/{sweep}"
+    out = args.out.replace("<sweep id>", sweep)
     paths = report.log_to_parent(client, parent.info.run_id, out)
     print(paths["report.md"].read_text(encoding="utf-8"))
     print(f"written: {', '.join(str(p) for p in paths.values())}; logged on run {parent.info.run_id} (report/)")

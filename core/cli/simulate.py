@@ -18,6 +18,7 @@ import argparse
 import json
 from pathlib import Path
 
+from thermodrift.core.cli import options
 from thermodrift.core.errors import InputError
 
 
@@ -34,7 +35,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--dt", type=float, default=None, help="sampling interval in s (default: the scenario's)")
     parser.add_argument("--mechanism", action="append", default=[], metavar="ID[:P=V,...]",
                         help="apply a mechanism on top (repeatable), e.g. sensor_lag:lag_s=300")
-    parser.add_argument("--out", default=".", help="output folder (default: current folder)")
+    options.add_out(parser, "output folder", default=".")
     parser.add_argument("--format", choices=("csv", "parquet", "xlsx"), default="csv", help="table format")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
 

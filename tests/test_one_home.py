@@ -1,0 +1,33 @@
+"""One home per concept: the default tracking store, the shared CLI options, the metrics, the seeding and the
+MLflow calls each live in one module. Read from the source, so nothing needs importing."""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import yaml
+
+REPO = Path(__file__).parents[1]
+PACKAGE = ("core", "plugins", "compensator")
+
+
+def _sources(*folders: str) -> dict[str, str]:
+    return {str(p.relative_to(REPO)): p.read_text(encoding="utf-8")
+            for folder in folders for p in sorted((REPO / folder).rglob("*.py"))}
+
+
+def test_the_default_tracking_store_is_named_in_one_module_and_the_config_agrees():
+    from thermodrift.core.tracking_faults import DEFAULT_URI
+
+    homes = [path for path, text in _sources(*PACKAGE).items() if "sqlite:///mlflow.db" in text]
+    assert homes == ["core/tracking_faults.py"]
+    config = yaml.safe_load((REPO / "conf" / "config.yaml").read_text(encoding="utf-8"))
+    assert config["tracking"]["uri"] == DEFAULT_URI
+
+
+def test_out_and_tracking_uri_are_defined_once_for_every_verb():
+    homes = {path for path, text in _sources("core/cli").items()
+             if re.search(r"""add_argument\(\s*["']--(out|tracking-uri)["']""", text)}
+    assert homes == {"core/cli/options.py"}
