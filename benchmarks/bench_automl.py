@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from thermodrift.compensator.features import FeatureStage
-from thermodrift.core import registry, splits
+from thermodrift.core import metrics, registry, splits
 from thermodrift.core.automl import job as automl_job, space
 from thermodrift.core.automl.search import Settings
 from thermodrift.core.metrics import evaluate
@@ -332,7 +332,7 @@ def final_rules(saved: dict, pool: int = Settings().ensemble_pool) -> dict:
     truth, fold_truth = saved["truth"], saved["fold_truth"]
 
     def rmse(pred, y):  # RMSE (µm) per target, mean over targets
-        return float(np.mean(np.sqrt(np.mean((np.asarray(pred) - y) ** 2, axis=0))))
+        return float(np.mean(metrics.rmse(pred, y, axis=0)))
 
     def inner_score(preds):
         return aggregate([rmse(p, y) for p, y in zip(preds, fold_truth)])

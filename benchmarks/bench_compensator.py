@@ -96,7 +96,9 @@ def replay(pkg, X, train, rows, values=None, times=None, **options):
 
 
 def rmse(a, b) -> float:
-    return float(np.sqrt(np.mean((np.asarray(a) - np.asarray(b)) ** 2)))
+    from thermodrift.core import metrics
+
+    return float(metrics.rmse(a, b))
 
 
 def table(title, header, rows):

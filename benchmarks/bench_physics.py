@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from thermodrift.core import physics, registry
+from thermodrift.core.metrics import rmse
 from thermodrift.core.physics import calibration as cal
 from thermodrift.core.physics import mismatch, scenarios, synthetic
 from thermodrift.core.physics.scenarios import Block
@@ -116,7 +117,7 @@ def fl_thermal(data: Path) -> None:
         model = registry.create("model", name, **params).fit(X.iloc[fold.train], y.iloc[fold.train])
         pred = model.predict(X.iloc[fold.test], history=X.iloc[fold.train])
         seconds = time.process_time() - start
-        return np.sqrt(np.mean((y.iloc[fold.test].to_numpy() - pred) ** 2, axis=0)), seconds
+        return rmse(y.iloc[fold.test].to_numpy(), pred, axis=0), seconds
 
     for name in ("lptn", "lptn_hybrid", "mlr"):
         err, seconds = held_out(name)

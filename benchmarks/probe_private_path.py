@@ -33,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 
+from thermodrift.core.metrics import rms, rmse
+
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
@@ -66,8 +68,8 @@ def path_gain(residual: np.ndarray, x: np.ndarray, rows: np.ndarray, blocks: np.
     return {"wins": float(np.mean(drops > 0)), "t": _t(drops), "active": int(active.sum()),
             "blocks": len(drops), "active_wins": float(np.mean(drops[active] > 0)) if active.any() else float("nan"),
             "active_t": _t(drops[active]),
-            "final_before": float(np.sqrt(np.mean(residual[final] ** 2))),
-            "final_after": float(np.sqrt(np.mean((residual[final] - X[final] @ beta) ** 2)))}
+            "final_before": float(rms(residual[final])),
+            "final_after": float(rmse(residual[final], X[final] @ beta))}
 
 
 def probe(generator: str, hidden: str | None, seed: int, driver: str, folder: Path) -> list[dict]:

@@ -14,6 +14,16 @@ NAMES = ("rmse", "mse", "mae", "max_abs_error", "mean_error", "r2", "explained_v
          "relative_error_pct", "compensation_rate")
 
 
+def rms(x, axis: int | None = None):
+    """Root mean square of ``x`` (in its own unit) over ``axis`` (None: all values; a float then)."""
+    return np.sqrt(np.mean(np.asarray(x) ** 2, axis=axis))
+
+
+def rmse(y_true, y_pred, axis: int | None = None):
+    """Root mean square error of ``y_pred`` against ``y_true`` (same unit, µm for displacements) over ``axis``."""
+    return rms(np.asarray(y_true) - np.asarray(y_pred), axis=axis)
+
+
 def channel_metrics(y_true_um: np.ndarray, y_pred_um: np.ndarray) -> dict[str, float]:
     """All metrics of one displacement channel (1-D arrays in µm)."""
     y = np.asarray(y_true_um, dtype=float).ravel()
@@ -28,7 +38,7 @@ def channel_metrics(y_true_um: np.ndarray, y_pred_um: np.ndarray) -> dict[str, f
     max_abs_y = float(np.max(np.abs(y)))
     ev = 1.0 - float(np.var(e)) / var_y if var_y > 0 else float("nan")
     return {
-        "rmse": float(np.sqrt(np.mean(e ** 2))),
+        "rmse": float(rms(e)),
         "mse": float(np.mean(e ** 2)),
         "mae": float(np.mean(abs_e)),
         "max_abs_error": float(abs_e.max()),

@@ -31,3 +31,12 @@ def test_out_and_tracking_uri_are_defined_once_for_every_verb():
     homes = {path for path, text in _sources("core/cli").items()
              if re.search(r"""add_argument\(\s*["']--(out|tracking-uri)["']""", text)}
     assert homes == {"core/cli/options.py"}
+
+
+# A root mean square written out: sqrt over a mean (numpy), the torch trainer's on tensors excepted.
+_RMS = re.compile(r"sqrt\(\s*\(*[^()]*(\([^()]*\)[^()]*)*\*\*\s*2\)*\.mean\(|sqrt\(\s*np\.(nan)?mean\(")
+
+
+def test_root_mean_squares_are_computed_only_by_core_metrics():
+    homes = {path for path, text in _sources(*PACKAGE, "benchmarks").items() if _RMS.search(text)}
+    assert homes == {"core/metrics.py"}

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+from thermodrift.core.metrics import rms
 import pandas as pd
 
 from thermodrift.core.physics.calibration import CalibrationResult
@@ -103,7 +104,7 @@ def mismatch_map(result: CalibrationResult, windows: Sequence[Window] | None = N
             rows.append({"channel": ch, "window": w.name, "kind": w.kind, "kind_channel": result.channel_kind[ch],
                          "start_h": w.start_s / 3600.0, "end_h": w.end_s / 3600.0, "time_fraction": frac,
                          "share": share, "excess": share * len(resid.columns) / frac if frac > 0 else np.nan,
-                         "rms": float(np.sqrt(np.mean(r ** 2))) if len(r) else np.nan,
+                         "rms": float(rms(r)) if len(r) else np.nan,
                          "mean": float(np.mean(r)) if len(r) else np.nan, "samples": int(b - a),
                          "unit": "K" if result.channel_kind[ch] == "temperature" else "um"})
     return MismatchMap(windows, pd.DataFrame(rows), total)

@@ -53,8 +53,8 @@ def check_predictions_in_um(factory: Factory, params: dict) -> None:
     X, y = tiny_frames()
     pred = _fit_predict(seeded(factory(**params)), X, y)
     assert np.isfinite(pred).all(), f"{int((~np.isfinite(pred)).sum())} non-finite predictions"
-    target_rms = np.sqrt((y.to_numpy() ** 2).mean(axis=0))
-    pred_rms = np.sqrt((pred ** 2).mean(axis=0))
+    target_rms = rms(y.to_numpy(), axis=0)
+    pred_rms = rms(pred, axis=0)
     low, high = MAGNITUDE_BAND
     for channel, t, p in zip(y.columns, target_rms, pred_rms):
         assert low * t <= p <= high * t, (
@@ -106,7 +106,7 @@ def check_search_space(factory: Factory, params: dict) -> None:
             except Exception as exc:
                 raise AssertionError(f"search-space point {point} failed: {type(exc).__name__}: {exc}") from exc
             assert np.isfinite(pred).all(), f"search-space point {point} gives non-finite predictions"
-            study.tell(trial, float(np.sqrt(((pred - y.to_numpy()) ** 2).mean())))
+            study.tell(trial, float(rmse(pred, y.to_numpy())))
 
 
 STREAM_TOLERANCE_UM = 1e-4

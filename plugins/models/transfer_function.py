@@ -27,6 +27,7 @@ from sklearn.linear_model import Ridge
 from thermodrift.compensator.features import FeatureStage
 from thermodrift.core.components import ThermalModel
 from thermodrift.core.hookspecs import hookimpl
+from thermodrift.core.metrics import rmse
 
 
 class TransferFunction(ThermalModel):
@@ -70,7 +71,7 @@ class TransferFunction(ThermalModel):
         Z = (F - mean) / scale
         cut = int(round(len(Z) * (1 - self.inner_fraction)))
         if 2 <= cut <= len(Z) - 1:
-            scores = [np.sqrt(np.mean((Ridge(alpha=a).fit(Z[:cut], y[:cut]).predict(Z[cut:]) - y[cut:]) ** 2))
+            scores = [rmse(Ridge(alpha=a).fit(Z[:cut], y[:cut]).predict(Z[cut:]), y[cut:])
                       for a in self.alphas]
             self.alpha_ = float(self.alphas[int(np.argmin(scores))])
         else:

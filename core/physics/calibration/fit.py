@@ -13,6 +13,7 @@ import pandas as pd
 from scipy import optimize
 from threadpoolctl import ThreadpoolController
 
+from thermodrift.core import metrics
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration.auto import AUTO_AMBIENT_DEGC, auto_network
 from thermodrift.core.physics.calibration.free import FreeParameter, default_free, free_from_paths
@@ -316,7 +317,7 @@ def _full(problem: Problem, theta: np.ndarray) -> dict[str, Any]:
     out = problem.outputs(sim)
     full = problem.outputs(problem.simulate(theta, full=True), out["linear"], full=True)
     pred = frame_of(problem, full["predictions"])
-    rmse = {c.name: float(np.sqrt(np.mean((c.measured - pred[c.name].to_numpy()) ** 2))) for c in problem.channels}
+    rmse = {c.name: float(metrics.rmse(c.measured, pred[c.name].to_numpy())) for c in problem.channels}
     return {"sim_fit": sim, "out_fit": out, "linear": out["linear"], "predicted": pred, "rmse": rmse,
             "ridge": dict(problem.ridge)}
 

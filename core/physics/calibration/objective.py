@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 import scipy.linalg
 
+from thermodrift.core import metrics
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration.free import FreeParameter, set_values
 from thermodrift.core.physics.integrate import CompiledNetwork
@@ -293,7 +294,7 @@ class Problem:
         n_t = sum(c.kind == "temperature" for c in self.channels)
         n_d = len(self.channels) - n_t
         for c in self.channels:
-            rms = float(np.sqrt(np.mean((c.measured[self.rows] - preds[c.name]) ** 2)))
+            rms = float(metrics.rmse(c.measured[self.rows], preds[c.name]))
             c.weight = max(c.sigma, rms)
             if self.balance and c.kind == "temperature" and n_d and n_t > n_d:
                 c.weight *= math.sqrt(n_t / n_d)
@@ -322,7 +323,7 @@ def _scaled(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Regressor columns scaled to unit RMS (the last, constant column kept): (A', scale)."""
     scale = np.ones(A.shape[1])
     if A.shape[1] > 1:
-        scale[:-1] = np.maximum(np.sqrt(np.mean(A[:, :-1] ** 2, axis=0)), 1e-12)
+        scale[:-1] = np.maximum(metrics.rms(A[:, :-1], axis=0), 1e-12)
     return A / scale, scale
 
 

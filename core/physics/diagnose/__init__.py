@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from thermodrift.core import metrics
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import adequacy, rule, screening, selection
@@ -100,8 +101,7 @@ class Diagnosis:
         out = {}
         for j, (c, k) in enumerate(zip(self.channels, self.kinds)):
             if k == "displacement":
-                r = (self.measured[:, j] - readings[:, j])[rows]
-                out[c] = float(np.sqrt(np.mean((r - 0.0) ** 2)))
+                out[c] = float(metrics.rms((self.measured[:, j] - readings[:, j])[rows]))
         return out
 
     def residuals(self) -> pd.DataFrame:

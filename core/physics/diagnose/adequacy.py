@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from thermodrift.core.metrics import rmse
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose.windows import condition_blocks
 from thermodrift.core.physics.network import Edge, Network, Node, TemperatureSensor
@@ -146,8 +147,8 @@ def assess(channels: list[str], kinds: list[str], sigma: np.ndarray, measured: n
     for j, (c, k) in enumerate(zip(channels, kinds)):
         if k != "displacement":
             continue
-        fit = float(np.sqrt(np.mean((measured[rows, j] - readings[rows, j]) ** 2)))
-        val = float(np.sqrt(np.mean((measured[val_rows, j] - val_readings[val_rows, j]) ** 2))) if len(
+        fit = float(rmse(measured[rows, j], readings[rows, j]))
+        val = float(rmse(measured[val_rows, j], val_readings[val_rows, j])) if len(
             val_rows) else float("nan")
         out["channels"][c] = {"rmse_um": round(fit, 4), "noise_um": round(float(sigma[j]), 4),
                               "misfit_over_noise": round(fit / sigma[j], 2),

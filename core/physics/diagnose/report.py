@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from thermodrift.core.metrics import rms, rmse
 from thermodrift.core.physics.diagnose import selection
 
 
@@ -239,7 +240,7 @@ def plot_residual_map(d, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
     before, after = d.measured - d.baseline, d.measured - d.augmented
-    scale = np.maximum(np.sqrt(np.mean(before ** 2, axis=0)), 1e-12)
+    scale = np.maximum(rms(before, axis=0), 1e-12)
     edges, g0 = _bins(d, before / scale)
     _, g1 = _bins(d, after / scale)
     vmax = float(max(g0.max(), 1e-9))
@@ -275,8 +276,8 @@ def plot_fit(d, path: Path) -> Path:
     final = ~d.fit_rows
     for ax, j in zip(axes[:, 0], disp):
         c = d.channels[j]
-        rb = np.sqrt(np.mean((d.measured[final, j] - d.baseline[final, j]) ** 2))
-        ra = np.sqrt(np.mean((d.measured[final, j] - d.augmented[final, j]) ** 2))
+        rb = rmse(d.measured[final, j], d.baseline[final, j])
+        ra = rmse(d.measured[final, j], d.augmented[final, j])
         ax.plot(h, d.measured[:, j], color="k", lw=0.7, label="measured")
         ax.plot(h, d.baseline[:, j], color="tab:blue", lw=0.8, ls="--", label=f"baseline (held-out RMSE {rb:.3g} µm)")
         ax.plot(h, d.augmented[:, j], color="tab:red", lw=0.9, label=f"with findings (held-out RMSE {ra:.3g} µm)")
