@@ -57,7 +57,7 @@ from pathlib import Path
 import numpy as np
 
 from thermodrift.compensator.features import FeatureStage
-from thermodrift.core import metrics, registry, splits
+from thermodrift.core import metrics, registry, splits, study
 from thermodrift.core.automl import job as automl_job, space
 from thermodrift.core.automl.search import Settings
 from thermodrift.core.metrics import evaluate
@@ -206,7 +206,7 @@ def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
     except ImportError:
         return None
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
-    targets = automl_job.targets_of(recording, spec.targets)
+    targets = study.targets_of(recording, spec.targets)
     inputs = [c for role in (*INPUT_ROLES, "speed", "cutting_power") for c in recording.columns(role)]
     raw = recording.data[inputs].to_numpy(dtype=float)
     roles = {c: recording.channels[c].role for c in inputs}
@@ -256,7 +256,7 @@ def task_folds(name: str, args):
     spec = spec_of(TASKS[name], args.seed, args.data, args.cache)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
-    targets = automl_job.targets_of(recording, spec.targets)
+    targets = study.targets_of(recording, spec.targets)
     return recording, fold, targets, inner.inner_folds(recording, fold.train, Settings().max_folds)
 
 

@@ -10,13 +10,13 @@ a study tunes on, taken inside a training part the same honest way.
 
 from __future__ import annotations
 
-import inspect
 import warnings
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 
 import numpy as np
 
+from thermodrift.core import registry
 from thermodrift.core.errors import InputError
 
 
@@ -236,8 +236,8 @@ def make_split(kind: str, seed: int | None = None, **params) -> Split:
     """Build a split by its config name; ``seed`` reaches the splits that draw at random (unless ``params`` set it)."""
     if kind not in SPLITS:
         raise InputError(f"unknown split {kind!r}; use one of {', '.join(SPLITS)}")
-    if seed is not None and "seed" in inspect.signature(SPLITS[kind]).parameters:
-        params.setdefault("seed", seed)
+    if seed is not None:
+        params = registry.with_seed(SPLITS[kind], params, seed)
     return SPLITS[kind](**params)
 
 

@@ -191,7 +191,7 @@ class Job:
         make_pruner(spec.pruner)  # a misspelt pruner is answered before any work
         if recording is None:
             recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
-        targets = self._targets(recording)
+        targets = targets_of(recording, self.spec.targets)
         split = splits.make_split(spec.split, seed=spec.seed, **spec.split_params)
         folds = split.folds(recording)
         features = [c for role in spec.input_roles for c in recording.columns(role)]
@@ -215,17 +215,6 @@ class Job:
         """Select, tune, refit and evaluate on one fold; only ``fold.train`` rows reach selection and tuning."""
         return _FoldRun(self, recording, fold, features, targets, space, study_name).run()
 
-    def _targets(self, recording) -> list[str]:
-        available = recording.columns("displacement")
-        if not available:
-            raise InputError(f"{recording.source}: the recording has no displacement channel to model")
-        targets = list(self.spec.targets or available)
-        missing = [t for t in targets if t not in available]
-        if missing:
-            raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
-                             hint=f"choose from {available}")
-        return targets
-
     @staticmethod
     def storage(url: str) -> optuna.storages.RDBStorage:
         """The Optuna storage at ``url`` (creating its schema). Heartbeats let a later run mark the trials of a
@@ -236,18 +225,62 @@ class Job:
                 return optuna.storages.RDBStorage(url, heartbeat_interval=30, grace_period=90)
         return schema.retrying(create, url)  # workers that start together on a new database
 
-    def _model(self, name: str, params: dict):
-        factory = registry.get("model", name).factory
-        return registry.create("model", name, **registry.with_seed(factory, params, self.spec.seed))
-
     def _study(self, name: str) -> optuna.Study:
         spec = self.spec
-        sampler = registry.create_sampler(spec.optimizer, seed=spec.seed, n_trials=spec.n_trials,
-                                          **spec.optimizer_params)
-        storage = self.storage(spec.storage) if spec.storage else None
-        return schema.retrying(lambda: optuna.create_study(
-            study_name=name, storage=storage, sampler=sampler, pruner=make_pruner(spec.pruner), direction="minimize",
-            load_if_exists=True), spec.storage)
+        return open_study(name, spec.storage, spec.optimizer, spec.seed, spec.n_trials, spec.optimizer_params,
+                          make_pruner(spec.pruner))
+
+
+def targets_of(recording, wanted: list[str] | None) -> list[str]:
+    """The displacement channels a job models: ``wanted`` (None: every one); InputError naming any that is not."""
+    available = recording.columns("displacement")
+    if not available:
+        raise InputError(f"{recording.source}: the recording has no displacement channel to model")
+    targets = list(wanted or available)
+    missing = [t for t in targets if t not in available]
+    if missing:
+        raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
+                         hint=f"choose from {available}")
+    return targets
+
+
+def open_study(name: str, storage: str | None, optimizer: str, seed: int, n_trials: int,
+               optimizer_params: dict | None = None, pruner: optuna.pruners.BasePruner | None = None) -> optuna.Study:
+    """The Optuna study ``name`` (created, or loaded to resume) in ``storage`` (None: in memory), sampled by the
+    registered optimizer ``optimizer`` seeded with ``seed``."""
+    sampler = registry.create_sampler(optimizer, seed=seed, n_trials=n_trials, **(optimizer_params or {}))
+    rdb = Job.storage(storage) if storage else None
+    return schema.retrying(lambda: optuna.create_study(study_name=name, storage=rdb, sampler=sampler, pruner=pruner,
+                                                       direction="minimize", load_if_exists=True), storage)
+
+
+def seeded_model(name: str, params: dict, seed: int):
+    """The registered model ``name`` on ``params``, with ``seed`` where it takes one and ``params`` do not set it."""
+    return registry.create("model", name, **registry.with_seed(registry.get("model", name).factory, params, seed))
+
+
+def refit(models: list[tuple[str, str, dict]], inputs: Callable[[str], pd.DataFrame], y: pd.DataFrame,
+          rows: np.ndarray, seed: int) -> tuple[dict[str, Any], dict[str, float]]:
+    """Each ``(who, model name, params)`` of ``models`` fitted on ``rows`` of its input frame ``inputs(name)`` and
+    of ``y`` (µm); and the costs of ``who == "model"`` (core/efficiency.py), timed on those rows."""
+    fitted: dict[str, Any] = {}
+    cost: dict[str, float] = {}
+    for who, name, params in models:
+        frame = inputs(name)
+        started = time.perf_counter()
+        fitted[who] = seeded_model(name, params, seed).fit(frame.iloc[rows], y.iloc[rows])
+        if who == "model":
+            cost = efficiency.measure(fitted[who], frame, rows, time.perf_counter() - started)
+    return fitted, cost
+
+
+def score(fitted: dict[str, Any], names: dict[str, str], inputs: Callable[[str], pd.DataFrame], y: pd.DataFrame,
+          rows: np.ndarray) -> tuple[dict[str, np.ndarray], dict]:
+    """Held-out predictions (µm) on ``rows`` of every fitted model (``names``: who -> model name, for its inputs)
+    and their metrics; a model with history gets every earlier input row."""
+    preds = {who: predict_rows(m, inputs(names[who]), rows) for who, m in fitted.items()}
+    y_test = y.iloc[rows]
+    return preds, {who: evaluate(y_test, p) for who, p in preds.items()}
 
 
 @dataclass
@@ -340,23 +373,14 @@ class _FoldRun:
         """The model on ``params`` and each baseline, fitted on the training part; and the model's costs
         (core/efficiency.py), timed on training rows: the held-out rows are touched once, by :meth:`evaluate`."""
         spec = self.spec
-        fitted: dict[str, Any] = {}
-        cost: dict[str, float] = {}
-        for who, name, kwargs in [("model", spec.model, params)] + [(b, b, {}) for b in spec.baselines]:
-            frame = self.inputs(name, selected)
-            started = time.perf_counter()
-            fitted[who] = self.job._model(name, kwargs).fit(frame.iloc[self.fold.train], self.y.iloc[self.fold.train])
-            if who == "model":
-                cost = efficiency.measure(fitted[who], frame, self.fold.train, time.perf_counter() - started)
-        return fitted, cost
+        return refit([("model", spec.model, params)] + [(b, b, {}) for b in spec.baselines],
+                     lambda name: self.inputs(name, selected), self.y, self.fold.train, spec.seed)
 
     def evaluate(self, fitted: dict[str, Any], selected: list[str]) -> tuple[dict[str, np.ndarray], dict]:
         """Held-out predictions (µm) of every fitted model ("model" and each baseline) and their metrics."""
         spec = self.spec
         names = {"model": spec.model, **{b: b for b in spec.baselines}}
-        preds = {who: predict_rows(m, self.inputs(names[who], selected), self.fold.test) for who, m in fitted.items()}
-        y_test = self.y.iloc[self.fold.test]
-        return preds, {who: evaluate(y_test, p) for who, p in preds.items()}
+        return score(fitted, names, lambda name: self.inputs(name, selected), self.y, self.fold.test)
 
     # ------------------------------------------------------------------------------------------------ tuning parts
     def objective(self, trial: optuna.Trial, selector) -> float:
@@ -380,7 +404,7 @@ class _FoldRun:
 
     def validate(self, params: dict, selected: list[str], trial: optuna.Trial | None = None) -> float:
         """Inner validation RMSE (µm) of the model on ``params``, fitted on the inner training rows."""
-        model = self.job._model(self.spec.model, params)
+        model = seeded_model(self.spec.model, params, self.spec.seed)
         frame = self.inputs(self.spec.model, selected)
         with training.reporting(trial) if trial is not None else contextlib.nullcontext():
             model.fit(frame.iloc[self.inner_train], self.y.iloc[self.inner_train])

@@ -40,3 +40,10 @@ _RMS = re.compile(r"sqrt\(\s*\(*[^()]*(\([^()]*\)[^()]*)*\*\*\s*2\)*\.mean\(|sqr
 def test_root_mean_squares_are_computed_only_by_core_metrics():
     homes = {path for path, text in _sources(*PACKAGE, "benchmarks").items() if _RMS.search(text)}
     assert homes == {"core/metrics.py"}
+
+
+def test_a_component_gets_its_seed_only_through_registry_with_seed():
+    """``registry.with_seed`` knows whether a component takes ``random_state`` or ``seed``; nobody else sets it."""
+    seeding = re.compile(r"""setdefault\(\s*["'](random_state|seed)["']|["']random_state["']\s*:\s*(?!None)[A-Za-z_]""")
+    homes = {path for path, text in _sources(*PACKAGE).items() if seeding.search(text)}
+    assert homes == set()

@@ -11,7 +11,7 @@ import numpy as np
 from thermodrift.core import efficiency, registry
 from thermodrift.core.automl.folds import aggregate
 from thermodrift.core.metrics import evaluate
-from thermodrift.core.study import INPUT_ROLES, model_inputs, predict_rows
+from thermodrift.core.study import INPUT_ROLES, model_inputs, predict_rows, seeded_model
 
 
 @dataclass
@@ -40,7 +40,7 @@ class Evaluator:
         self.truth = [self.y.iloc[f.test] for f in self.folds]
 
     def pipeline(self, params: dict):
-        return registry.create("model", "pipeline", **{**params, "random_state": self.seed})
+        return seeded_model("pipeline", params, self.seed)
 
     def evaluate(self, params: dict, measure_costs: bool = True) -> Evaluation:
         """Fit and score ``params`` (a pipeline's parameters) on every fold; exceptions propagate."""

@@ -18,13 +18,16 @@ from dataclasses import dataclass
 import optuna
 import torch
 
-from thermodrift.core import efficiency, registry, schema, splits
+from thermodrift.core import registry, splits
 from thermodrift.core.automl import folds as inner, leaderboard
 from thermodrift.core.automl.evaluate import Evaluator
 from thermodrift.core.automl.search import Search, SearchResult, Settings
 from thermodrift.core.errors import InputError
-from thermodrift.core.metrics import evaluate
-from thermodrift.core.study import FoldResult, Job, JobResult, JobSpec, model_inputs, predict_rows
+from thermodrift.core.study import (FoldResult, JobResult, JobSpec, model_inputs, open_study, refit, score,
+                                    targets_of)
+
+# The search's sampler, through the registry like every study's: TPE over each family's branch on its own.
+SAMPLER, SAMPLER_PARAMS = "tpe", {"n_startup_trials": 8, "multivariate": True, "group": True}
 
 
 @dataclass
@@ -48,18 +51,6 @@ def study_name(spec: JobSpec, settings: Settings) -> str:
     return f"automl-{spec.dataset}-{spec.split}-s{spec.seed}-{digest}"
 
 
-def targets_of(recording, wanted: list[str] | None) -> list[str]:
-    available = recording.columns("displacement")
-    if not available:
-        raise InputError(f"{recording.source}: the recording has no displacement channel to model")
-    targets = list(wanted or available)
-    missing = [t for t in targets if t not in available]
-    if missing:
-        raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
-                         hint=f"choose from {available}")
-    return targets
-
-
 def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None) -> AutoMLResult:
     """Search, refit and evaluate (see the module docstring). ``spec`` gives dataset, split, targets, seed,
     storage and progress; its model, selector and optimizer are not used (the search chooses)."""
@@ -81,7 +72,9 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
     folds = inner.inner_folds(recording, fold.train, settings.max_folds)
     ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
     name = spec.study_name or study_name(spec, settings)
-    study = _study(spec, name)
+    with warnings.catch_warnings():  # TPE's `group` is experimental in Optuna
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        study = open_study(name, spec.storage, SAMPLER, spec.seed, settings.budget_fits, SAMPLER_PARAMS)
     done = sum(t.state.is_finished() for t in study.trials)
     if done:
         say(f"automl study {name} resumed: {done} candidates found")
@@ -97,26 +90,23 @@ def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: lis
                        params: dict, inner_score: float) -> JobResult:
     """The chosen model refitted on ``fold.train`` and scored on ``fold.test`` beside ``spec.baselines`` (on every
     input temperature), as the :class:`JobResult` of a job with ``model=model_name``."""
-    inputs = [c for role in spec.input_roles for c in recording.columns(role)]
+    columns = [c for role in spec.input_roles for c in recording.columns(role)]
+    frames = {}
+
+    def inputs(name: str):
+        if name not in frames:
+            frames[name] = model_inputs(recording, columns, registry.get("model", name).factory, targets)
+        return frames[name]
+
     y_all = recording.data[targets]
-    preds, model, cost = {}, None, {}
-    for who, name, p in [("model", model_name, params)] + [(b, b, {}) for b in spec.baselines]:
-        cls = registry.get("model", name).factory
-        frame = model_inputs(recording, inputs, cls, targets)
-        kwargs = dict(p)
-        if registry.accepts(cls, "random_state"):
-            kwargs.setdefault("random_state", spec.seed)
-        started = time.perf_counter()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            m = registry.create("model", name, **kwargs).fit(frame.iloc[fold.train], y_all.iloc[fold.train])
-        fit_s = time.perf_counter() - started
-        if who == "model":
-            model, cost = m, efficiency.measure(m, frame, fold.train, fit_s)
-        preds[who] = predict_rows(m, frame, fold.test)
-    y_test = y_all.iloc[fold.test]
-    result = FoldResult(fold.name, recording.time_s[fold.test], y_test, preds,
-                        {who: evaluate(y_test, p) for who, p in preds.items()}, selected=_selected(model),
+    models = [("model", model_name, params)] + [(b, b, {}) for b in spec.baselines]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fitted, cost = refit(models, inputs, y_all, fold.train, spec.seed)
+    preds, metrics = score(fitted, {who: name for who, name, _ in models}, inputs, y_all, fold.test)
+    model = fitted["model"]
+    result = FoldResult(fold.name, recording.time_s[fold.test], y_all.iloc[fold.test], preds, metrics,
+                        selected=_selected(model),
                         best_params=params, valid_rmse=float(inner_score), model=model, efficiency=cost,
                         train_rows=fold.train)
     job_spec = dataclasses.replace(spec, model=model_name, model_params=params, selector="all", n_trials=0)
@@ -130,11 +120,3 @@ def _selected(model) -> list[str]:
         return sorted({c for m in members for c in getattr(m, "selected_", [])})
     return list(getattr(model, "selected_", []))
 
-
-def _study(spec: JobSpec, name: str) -> optuna.Study:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        sampler = optuna.samplers.TPESampler(seed=spec.seed, n_startup_trials=8, multivariate=True, group=True)
-        storage = Job.storage(spec.storage) if spec.storage else None
-        return schema.retrying(lambda: optuna.create_study(study_name=name, storage=storage, sampler=sampler,
-                                                           direction="minimize", load_if_exists=True), spec.storage)

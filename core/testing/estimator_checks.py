@@ -13,6 +13,8 @@ from typing import Any, Callable
 import numpy as np
 from sklearn.base import clone
 
+from thermodrift.core.registry import with_seed
+
 Factory = Callable[..., Any]
 
 
@@ -81,9 +83,9 @@ def pickled(obj: Any) -> Any:
 
 
 def seeded(est: Any, seed: int = 0) -> Any:
-    """``est`` with ``random_state=seed`` if it has that parameter and it is unset."""
-    if "random_state" in est.get_params(deep=False) and est.get_params(deep=False)["random_state"] is None:
-        est.set_params(random_state=seed)
+    """``est`` with ``seed`` under the name it takes one by (``random_state`` or ``seed``), if that is unset."""
+    unset = {k for k, v in est.get_params(deep=False).items() if v is None}
+    est.set_params(**{k: v for k, v in with_seed(type(est), {}, seed).items() if k in unset})
     return est
 
 

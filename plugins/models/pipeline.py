@@ -235,7 +235,7 @@ class Ensemble(ThermalModel):
             raise ValueError("an ensemble needs members and one non-negative weight per member (sum > 0)")
         self.weights_ = w / w.sum()
         targets = pd.DataFrame(y, index=X.index, columns=self.target_names_)
-        self.members_ = [Pipeline(**{"random_state": self.random_state, **m}).fit(X, targets) for m in members]
+        self.members_ = [Pipeline(**registry.with_seed(Pipeline, m, self.random_state)).fit(X, targets) for m in members]
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         return sum(w * m.predict(X) for w, m in zip(self.weights_, _members(self)))
