@@ -100,15 +100,17 @@ class Machine:
 
 FINE = {"shaft": 14, "housing": 12, "column": 10, "bed": 10, "screw": 8, "block": 6}
 LUMPED = {"shaft": 3, "housing": 3, "column": 2, "bed": 2, "screw": 2, "block": 1}
+MERGED = {"shaft": 2, "housing": 2, "column": 1, "bed": 1, "screw": 1, "block": 1}   # bodies merged further
 
 
-def build(rng: np.random.Generator, block: bool = False, lumped: bool = False) -> Machine:
+def build(rng: np.random.Generator, block: bool = False, lumped: bool = False, cells: dict | None = None) -> Machine:
     """Draw a vertical machining centre (sizes, joints, sources, exposure); ``block`` adds a headstock block
     joined to the housing clamp and the column front (drawn whether or not it is used, so the rest of the
     machine is the same). ``lumped``: the other model class, a lumped network of 14–15 nodes (most of them
     unmeasured, in the heat paths and in the drift) whose topology changes per seed: 1–3 extra links drawn
-    from hoses, cable chain and guards, and each part's expansion weight × U(0.5, 1.5)."""
-    cells = LUMPED if lumped else FINE
+    from hoses, cable chain and guards, and each part's expansion weight × U(0.5, 1.5). ``cells`` overrides the
+    volumes per part (a coarser model of the same drawn machine: the draws do not depend on it)."""
+    cells = cells or (LUMPED if lumped else FINE)
     r_s, L_s = rng.uniform(0.03, 0.05), rng.uniform(0.45, 0.6)
     nose = rng.uniform(0.08, 0.12)
     r_o = rng.uniform(0.09, 0.13)

@@ -4,11 +4,17 @@ Examples::
 
     thermodrift diagnose ../shared/data/fl_thermal/data.xlsx --manifest plugins/datasets/fl_thermal.yaml --out runs/dx
     thermodrift diagnose sim.csv --manifest sim.manifest.yaml --network baseline.yaml --tracking-uri file:./mlruns
+    thermodrift diagnose data.csv --manifest data.yaml --simulation my_fe_model.csv --out runs/dx
 
 Calibrates the baseline (``auto``: built from the manifest; a spec: its parameters kept, offsets and
 sensitivities solved), screens every registered mechanism at every place, fits the best by re-simulation and
 selects forward; writes ``report.json``, ``report.md``, ``residuals.csv``, ``residual_map.png`` and
 ``fit.png`` into ``--out`` (see :mod:`thermodrift.core.physics.diagnose.report`).
+
+With ``--simulation SIM`` (a table from any simulator: the manifest's time column and any of the recording's
+temperature and displacement channels, same names and units; ``thermodrift simulate --network spec.yaml --drive
+TABLE --manifest M.yaml --out SIM.csv`` writes one) what is missing is found against that simulation instead
+(:mod:`thermodrift.core.physics.diagnose.against_simulation`); ``baseline`` is then the calibrated simulation.
 """
 
 from __future__ import annotations
@@ -33,6 +39,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--alpha", type=float, default=0.01,
                         help="family-wise level of the likelihood-ratio tests, Bonferroni-corrected (default 0.01)")
     parser.add_argument("--max-rounds", type=int, default=3, help="forward-selection rounds at most (default 3)")
+    parser.add_argument("--simulation", default=None, metavar="SIM",
+                        help="the user's simulation of this recording (CSV, Parquet or XLSX): find what it leaves out")
+    parser.add_argument("--simulation-inputs", nargs="+", default=None, metavar="ROLE",
+                        choices=("ambient", "coolant_inlet", "cutting_power", "axis_velocity", "none"),
+                        help="with --simulation: the recorded inputs that drove it besides the speed ('none': only "
+                             "the speed; default: read from its traces)")
     parser.add_argument("--mechanisms", nargs="+", default=None, metavar="ID",
                         help="screen only these mechanisms (default: every registered one)")
 
@@ -47,9 +59,23 @@ def run(args: argparse.Namespace) -> int:
     if args.max_rounds < 1:
         raise InputError("--max-rounds must be ≥ 1")
     recording = load_recording(args.table, args.manifest, require=())
-    network = None if args.network == "auto" else load_network(args.network)
-    d = diagnose(recording, network, seed=args.seed, alpha=args.alpha, max_rounds=args.max_rounds,
-                 only=args.mechanisms)
+    if args.simulation:
+        from thermodrift.core.physics.diagnose import against_simulation, simulation_table
+
+        if args.network != "auto":
+            raise InputError("give --simulation or --network, not both")
+        sim = simulation_table.read_simulation(args.simulation, recording, args.manifest)
+        given = None if args.simulation_inputs is None else [r for r in args.simulation_inputs if r != "none"]
+        d = against_simulation.diagnose_simulation(recording, sim, simulated_inputs=given, seed=args.seed,
+                                                   only=args.mechanisms)
+    else:
+        network = None if args.network == "auto" else load_network(args.network)
+        d = diagnose(recording, network, seed=args.seed, alpha=args.alpha, max_rounds=args.max_rounds,
+                     only=args.mechanisms)
+        from thermodrift.core import registry
+        from thermodrift.core.physics.diagnose import status
+
+        d.adequacy["mechanisms"] = status.listing(d, args.mechanisms or registry.default().names("mechanism"))
     out = Path(args.out)
     command = "thermodrift " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else ""
     doc = report.write(d, out, command)
@@ -58,6 +84,9 @@ def run(args: argparse.Namespace) -> int:
 
         tracking.log_diagnosis(d, doc, out, args.tracking_uri, f"diagnose {Path(args.table).name}", args.seed)
     print(doc["verdict"])
+    untested = [m for m in doc["adequacy"].get("mechanisms", []) if m["status"] != "tested"]
+    if untested:
+        print("  not tested: " + "; ".join(f"{m['mechanism']} ({m['status']})" for m in untested))
     for f in doc["findings"]:
         print(f"  found {f['mechanism']} (confidence {f['confidence']:.2f}): {f['parameters']}")
     print(f"wrote {out}")

@@ -24,6 +24,8 @@ class AmbientCoupling(Mechanism):
     options = {"nodes": None, "groups": ("structure", "housing")}
     drivers = ("ambient",)
     signature = "present with the spindle stopped; follows lagged ambient (τ hours); 24 h peak; same sign on structure"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "ambient", "taus_s": (1800.0, 7200.0, 28800.0), "sign": 1}
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])

@@ -30,6 +30,8 @@ class AxisDriveHeat(Mechanism):
     options = {"axes": ("x", "y"), "capacity_J_K": 6000.0, "ambient_W_K": 2.0}
     drivers = ("axis_velocity",)
     signature = "follows axis velocity; present with the spindle idle; position-dependent"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "axis_velocity", "taus_s": (900.0, 3600.0, 14400.0), "sign": 1}
     laws = ("drive heat as a power of axis velocity",)
 
     def _apply(self, network, p, o):

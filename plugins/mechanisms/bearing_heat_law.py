@@ -29,6 +29,8 @@ class BearingHeatLaw(Mechanism):
     options = {"sources": None}
     drivers = ("speed",)
     signature = "steady ΔT vs n across plateaus follows another power law (n vs n^(5/3))"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "speed_power", "exponents": (0.75, 3.0), "taus_s": (600.0, 1800.0, 7200.0)}
     laws = ("friction heat as a power of speed", "oil viscosity falling with temperature")
 
     def _apply(self, network, p, o):

@@ -23,6 +23,8 @@ class CentrifugalGrowth(Mechanism):
     options = {"axes": ("z",)}
     drivers = ("speed",)
     signature = "instantaneous step at speed changes ∝ n², no lag"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "speed_squared", "taus_s": (30.0, 120.0), "reaches": ("displacement",), "axes": ("z",)}
     laws = ("growth ∝ speed²",)
 
     def _apply(self, network, p, o):

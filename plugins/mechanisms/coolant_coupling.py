@@ -25,6 +25,8 @@ class CoolantCoupling(Mechanism):
     options = {"nodes": None, "groups": ("motor", "housing"), "capacity_J_K": 2000.0}
     drivers = ("coolant_inlet",)
     signature = "periodic at the chiller period, phase-lagged to the coolant inlet; steps when the coolant switches"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "coolant_inlet", "taus_s": (300.0, 1200.0, 3600.0), "sign": 1}
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])

@@ -21,6 +21,8 @@ class CuttingHeat(Mechanism):
     options = {"nodes": None, "groups": ("tool", "table", "bearing")}
     drivers = ("cutting_power",)
     signature = "only in cutting windows; scales with cutting power, not speed"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "cutting_power", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1}
 
     def _apply(self, network, p, o):
         nodes = target_nodes(network, self.id, o["nodes"], o["groups"])

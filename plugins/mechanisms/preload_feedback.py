@@ -23,6 +23,8 @@ class PreloadFeedback(Mechanism):
     options = {"nodes": None, "hot": None, "cold": None}
     drivers = ("speed",)
     signature = "super-linear, self-reinforcing growth at high speed; ∝ (T_shaft − T_housing)·n"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "heat_feedback", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1}
     laws = ("heat ∝ speed × (T_shaft − T_housing)",)
 
     def _apply(self, network, p, o):

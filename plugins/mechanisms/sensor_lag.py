@@ -21,6 +21,9 @@ class SensorLag(Mechanism):
     parameters = (Parameter("lag_s", 120.0, 0.0, 1800.0, "s", 0.0, "added first-order sensor time constant"),)
     options = {"sensors": None}
     signature = "residual ≈ −τ_s dT/dt: derivative spikes at speed steps"
+    # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
+    simulation_form = {"driver": "sensor_lag", "taus_s": (120.0, 300.0, 600.0, 1200.0, 2400.0),
+                       "reaches": ("temperature",)}
 
     def _apply(self, network, p, o):
         chosen = o["sensors"]

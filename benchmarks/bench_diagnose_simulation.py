@@ -1,0 +1,256 @@
+"""Missing-physics finder against the user's own simulation (``diagnose --simulation``): concealed-effect cases
+from the independent generators, each with its user's simulation, and semi-synthetic FL_THERMAL.
+
+Every case, nulls included, comes with the user's simulation (:mod:`independent.user_sim`): the same drawn
+machine without the concealed mechanism, every physical parameter off by a lognormal factor of relative size
+``--errors`` (default 0.2), every second case also with structural error (a coarser discretisation of the fd
+machine, bodies of the lumped one merged further), driven by the recorded inputs. Every driver (ambient with
+daily and HVAC cycles, a cycling chiller, cutting, axis motion) is active in every case. The finder is told
+which recorded inputs drove the simulation (the user knows their model: the hall air, and the chiller inlet
+when the simulation has the motor jacket), or with ``--detect-inputs`` reads them from its traces.
+
+Scores: top-1 over the mechanism cases (and over the ones whose mechanism the report lists as tested), the
+share of cases with a wrong mechanism named, null cases with a finding, the median held-out drift cut over
+correct finds (on the drift channel where the planted effect is largest, final block), the report's status
+of the concealed mechanism on misses (tested / nested / untestable), and run time per case (noisy: the machine
+is shared).
+
+Semi-synthetic FL_THERMAL (``--fl``): the user's simulation is the ``auto`` network calibrated on the plain
+recording, run on its recorded inputs; the three plantings of :mod:`independent.fl_semi` (and their controls)
+are diagnosed against it. A planted effect counts as named when it is found on the planted recording and not
+on its control.
+
+Seeds: development cases are seeds < 1000 (:func:`independent.case_list`); ``--sealed`` runs the sealed range
+from ``--sealed-base`` (default 11000, run once, at the end).
+
+Run::
+
+    python benchmarks/bench_diagnose_simulation.py                      # both generators, 11 + 4 nulls each (~5 min)
+    python benchmarks/bench_diagnose_simulation.py --full --results dev.jsonl        # 33 + 20 per generator
+    python benchmarks/bench_diagnose_simulation.py --full --sealed --results sealed.jsonl
+    python benchmarks/bench_diagnose_simulation.py --fl                 # semi-synthetic FL_THERMAL only
+    python benchmarks/bench_diagnose_simulation.py --timing             # one 30 h recording at 15 s
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+
+from thermodrift.core.physics.diagnose import report as dx_report
+from thermodrift.core.physics.diagnose.against_simulation import diagnose_simulation
+from thermodrift.core.recording import load_recording
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import independent  # noqa: E402 - the independent generator package next to this script
+from independent.user_sim import make_sim_case  # noqa: E402
+
+DEFAULT_DATA = HERE.parent.parent / "shared" / "data" / "fl_thermal"
+SEALED_BASE = 11000
+
+
+def run_case(generator: str, seed: int, hidden: str | None, error: float, structural: bool, step_s: float,
+             detect: bool, folder: Path) -> dict:
+    gen, sim = make_sim_case(seed, hidden, generator, error, structural, step_s)
+    rec = load_recording(*gen.write(folder))
+    start = time.perf_counter()
+    d = diagnose_simulation(rec, sim, simulated_inputs=None if detect else gen.info["simulated_inputs"])
+    seconds = time.perf_counter() - start
+    doc = dx_report.to_json(d)
+    found = [f["mechanism"] for f in d.findings]
+    ch = gen.drift_channel
+    before, after = doc["baseline"]["heldout_rmse_um"][ch], doc["augmented"]["heldout_rmse_um"][ch]
+    status = {m["mechanism"]: m for m in d.adequacy["mechanisms"]}
+    mine = status.get(hidden or "", {})
+    return {"case": f"{generator}_{hidden or 'none'}_{seed}_e{error:g}_{'s' if structural else 'x'}_{step_s:g}s",
+            "generator": generator, "seed": seed, "hidden": hidden or "none", "error": error,
+            "structural": structural, "top1": found[0] if found else "none", "found": found, "seconds": seconds,
+            "samples": len(rec), "cut": 1 - after / before if before > 0 else 0.0, "cut_channel": ch,
+            "share": gen.share, "status": mine.get("status", ""), "reason": mine.get("reason", ""),
+            "simulated_inputs": d.adequacy["simulated_inputs"],
+            "tested": [{k: m[k] for k in ("mechanism", "share", "folds_improved", "size_noise_units", "passed")}
+                       for m in d.adequacy["mechanisms"] if m["status"] == "tested"]}
+
+
+def fl_cases(data: Path, seed: int) -> list[dict]:
+    """Semi-synthetic FL_THERMAL against the ``auto`` network calibrated on the plain recording (see the module
+    docstring)."""
+    from independent import fl_semi
+
+    from thermodrift.core.physics.calibration import calibrate
+    from thermodrift.core.physics.diagnose.simulation_table import drive
+    from thermodrift.core.recording import Channel, Recording
+
+    manifest = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
+    rec = load_recording(data / "data.xlsx", manifest)
+    start = time.perf_counter()
+    cal = calibrate(rec, None, intervals=False, prior_strength=0.0, seed=seed)
+    sim = drive(cal.network, rec)
+    print(f"FL_THERMAL: auto network calibrated on the plain recording in {time.perf_counter() - start:.0f} s",
+          file=sys.stderr, flush=True)
+    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
+    specs = [("fl_thermal (plain)", {}, {}, None, None)]
+    for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
+        control = "fl_thermal (plain)"
+        if case.added:
+            control = f"fl_thermal + {', '.join(case.added)} (control)"
+            specs.append((control, case.added, {}, None, None))
+        specs.append((f"fl_thermal + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift,
+                      case.mechanism, control))
+    rows = []
+    for label, added, drift, mechanism, control in specs:
+        frame, channels = rec.data.copy(), dict(rec.channels)
+        for col, (role, unit, values) in added.items():
+            frame[col] = values
+            channels[col] = Channel(col, role, unit, {})
+        for col, values in drift.items():
+            frame[col] = frame[col] + values
+        t0 = time.perf_counter()
+        d = diagnose_simulation(Recording(frame, channels, rec.source + label[len("fl_thermal"):]), sim,
+                                simulated_inputs=[])
+        rows.append({"case": label, "found": [f["mechanism"] for f in d.findings], "planted": mechanism,
+                     "control": control, "seconds": time.perf_counter() - t0})
+        print(f"{label:<60} {', '.join(rows[-1]['found']) or 'none':<30} {rows[-1]['seconds']:5.1f} s",
+              file=sys.stderr, flush=True)
+    return rows
+
+
+def report_fl(rows: list[dict]) -> str:
+    by = {r["case"]: r for r in rows}
+    out = ["## Semi-synthetic FL_THERMAL (simulation: the auto network calibrated on the plain recording)", "",
+           "| case | found | control found | named |", "|---|---|---|---|"]
+    named = 0
+    for r in rows:
+        if not r["planted"]:
+            out.append(f"| {r['case']} | {', '.join(r['found']) or 'none'} | | |")
+            continue
+        ctrl = by.get(r["control"], {}).get("found", [])
+        ok = bool(r["found"]) and r["found"][0] == r["planted"] and r["planted"] not in ctrl
+        named += ok
+        out.append(f"| {r['case']} | {', '.join(r['found']) or 'none'} | {', '.join(ctrl) or 'none'} | "
+                   f"{'yes' if ok else 'no'} |")
+    planted = sum(1 for r in rows if r["planted"])
+    out += ["", f"Planted effects named: {named} of {planted} (target ≥ 2 of 3).", ""]
+    return "\n".join(out)
+
+
+def report(rows: list[dict]) -> str:
+    hidden = [r for r in rows if r["hidden"] != "none"]
+    nulls = [r for r in rows if r["hidden"] == "none"]
+    correct = [r for r in hidden if r["top1"] == r["hidden"]]
+    wrong = [r for r in rows if r["top1"] not in ("none", r["hidden"])]
+    testable = [r for r in hidden if r["status"] == "tested"]
+    cuts = [r["cut"] for r in correct]
+    secs = [r["seconds"] for r in rows]
+    out = ["## Summary", "", "| metric | value | target |", "|---|---:|---:|",
+           f"| top-1, mechanism cases | {len(correct)}/{len(hidden)} ({len(correct) / max(len(hidden), 1):.0%}) "
+           f"| ≥ 90 % |",
+           f"| top-1, cases whose mechanism is tested | {sum(r['top1'] == r['hidden'] for r in testable)}/"
+           f"{len(testable)} | |",
+           f"| wrong mechanism named, all cases | {len(wrong)}/{len(rows)} ({len(wrong) / max(len(rows), 1):.1%}) "
+           f"| ≤ 2 % |",
+           f"| null cases with a finding | {sum(r['top1'] != 'none' for r in nulls)}/{len(nulls)} | 0 |",
+           f"| median held-out drift cut, correct finds | "
+           f"{statistics.median(cuts) if cuts else float('nan'):.0%} | ≥ 50 % |",
+           f"| median / max seconds per case (loaded machine) | {statistics.median(secs) if secs else 0:.1f} / "
+           f"{max(secs) if secs else 0:.1f} | ≤ 30 s at 15 s |", ""]
+    out += ["## Per mechanism (correct / cases; what the report says on the misses)", "",
+            "| hidden | correct | found instead | status of the hidden mechanism on misses |", "|---|---:|---|---|"]
+    for h in sorted({r["hidden"] for r in rows}):
+        rs = [r for r in rows if r["hidden"] == h]
+        ok = sum(r["top1"] == h for r in rs)
+        instead = Counter(r["top1"] for r in rs if r["top1"] != h)
+        status = Counter(r["status"] or "-" for r in rs if r["top1"] != h)
+        out.append(f"| {h} | {ok}/{len(rs)} | {', '.join(f'{k} {v}' for k, v in instead.items())} | "
+                   f"{', '.join(f'{k} {v}' for k, v in status.items())} |")
+    out += ["", "## By setting (top-1 on mechanism cases; null cases with a finding)", "",
+            "| generator | error | structural | top-1 | null findings |", "|---|---:|---|---:|---:|"]
+    for key in sorted({(r["generator"], r["error"], r["structural"]) for r in rows}):
+        rs = [r for r in rows if (r["generator"], r["error"], r["structural"]) == key]
+        hs, ns = [r for r in rs if r["hidden"] != "none"], [r for r in rs if r["hidden"] == "none"]
+        out.append(f"| {key[0]} | {key[1]:g} | {'yes' if key[2] else 'no'} | "
+                   f"{sum(r['top1'] == r['hidden'] for r in hs)}/{len(hs)} | "
+                   f"{sum(r['top1'] != 'none' for r in ns)}/{len(ns)} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--generator", choices=("fd", "lumped", "both"), default="both")
+    ap.add_argument("--full", action="store_true", help="3 cases per mechanism and 20 nulls per generator")
+    ap.add_argument("--sealed", action="store_true", help="the sealed range (run once, at the end)")
+    ap.add_argument("--sealed-base", type=int, default=SEALED_BASE, metavar="SEED")
+    ap.add_argument("--errors", type=float, nargs="+", default=[0.2], help="parameter error sizes (default 0.2)")
+    ap.add_argument("--detect-inputs", action="store_true",
+                    help="read the inputs that drove the simulation from its traces instead of being told")
+    ap.add_argument("--step-s", type=float, default=120.0, help="logging interval (default 120 s)")
+    ap.add_argument("--timing", action="store_true", help="only one 30 h recording at 15 s per generator")
+    ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="only these hidden mechanisms ('none': nulls)")
+    ap.add_argument("--part", metavar="K/N", help="only every N-th case from the K-th (1-based)")
+    ap.add_argument("--results", type=Path, help="JSON lines of finished cases; cases already in it are skipped")
+    ap.add_argument("--pool", nargs="+", type=Path, help="run nothing: report over these --results files")
+    ap.add_argument("--fl", action="store_true", help="only the semi-synthetic FL_THERMAL cases")
+    ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder with FL_THERMAL data.xlsx")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args(argv)
+    if args.fl:
+        if not (args.data / "data.xlsx").is_file():
+            print(f"bench: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
+            return 2
+        print(report_fl(fl_cases(args.data, args.seed)))
+        return 0
+    if args.pool:
+        rows = [json.loads(line) for f in args.pool for line in f.read_text(encoding="utf-8").splitlines() if line]
+        print(report(list({r["case"]: r for r in rows}.values())))
+        return 0
+    done = {}
+    if args.results and args.results.is_file():
+        done = {r["case"]: r for r in (json.loads(x) for x in args.results.read_text(encoding="utf-8").splitlines()
+                                       if x.strip())}
+    per, nulls = (3, 20) if args.full else (1, 4)
+    gens = ("fd", "lumped") if args.generator == "both" else (args.generator,)
+    specs = []
+    for g in gens:
+        cases = independent.case_list(args.sealed, per, nulls, args.sealed_base if args.sealed else 0)
+        if args.timing:
+            cases = [(cases[0][0] + 900, "coolant_coupling", False)]
+        for i, (seed, hidden, _) in enumerate(cases):
+            for error in args.errors:
+                specs.append((g, seed, hidden, error, i % 2 == 1, 15.0 if args.timing else args.step_s))
+    if args.only:
+        specs = [s for s in specs if (s[2] or "none") in args.only]
+    if args.part:
+        k, n = (int(v) for v in args.part.split("/"))
+        specs = specs[k - 1::n]
+    rows, start = [], time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="bench-dx-sim-") as tmp:
+        for g, seed, hidden, error, structural, step in specs:
+            name = f"{g}_{hidden or 'none'}_{seed}_e{error:g}_{'s' if structural else 'x'}_{step:g}s"
+            if name in done:
+                rows.append(done[name])
+                continue
+            r = run_case(g, seed, hidden, error, structural, step, args.detect_inputs, Path(tmp))
+            rows.append(r)
+            if args.results:
+                with args.results.open("a", encoding="utf-8") as fh:
+                    fh.write(json.dumps(r) + "\n")
+            print(f"{r['case']:<48} top-1 {r['top1']:<28} cut {r['cut']:5.0%} {r['seconds']:5.1f} s",
+                  file=sys.stderr, flush=True)
+    half = f"sealed range from {args.sealed_base}" if args.sealed else "development seeds"
+    print(f"# diagnose --simulation benchmark ({', '.join(gens)}; {half}; parameter error "
+          f"{', '.join(f'{e:g}' for e in args.errors)}; half structural; inputs "
+          f"{'read from the traces' if args.detect_inputs else 'given'}; {time.perf_counter() - start:.0f} s)\n")
+    print(report(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

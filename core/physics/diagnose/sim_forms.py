@@ -1,0 +1,187 @@
+"""The regressors the simulation-given finder works with: recorded drivers, their first-order lags, and the
+residual forms mechanisms declare for this mode.
+
+A mechanism takes part in ``diagnose --simulation`` by declaring a class attribute ``simulation_form``, a dict::
+
+    simulation_form = {"driver": "ambient",                # one of DRIVERS (below)
+                       "taus_s": (1800.0, 7200.0, 28800.0),  # first-order lags tried (s); the fit picks one
+                       "reaches": ("temperature", "displacement"),
+                       "sign": 1,                          # sign of its effect on temperatures (0: either)
+                       "axes": ("z",)}                     # optional: only drift channels of these axes
+
+Drivers (each a series on the recording's times, zero at the start; ``r`` = speed / top speed; ``s_j`` the
+simulated excess of channel j over its start; ``T̄`` the mean simulated temperature excess over ambient):
+
+=================== ======================================================================================
+ambient             recorded ambient (°C)
+coolant_inlet       recorded coolant inlet (°C)
+cutting_power       recorded cutting power (kW)
+axis_velocity       |recorded axis velocity|^1.4 (in units of 10 m/min)
+speed_power         r^p for each exponent in the form's ``exponents`` (heat that follows another law)
+speed_squared       r² (a growth that follows speed itself, not heat)
+speed_convection    −r^0.8 · (simulated temperature excess over ambient): cooling that grows with speed
+heat_feedback       r^1.5 · lag(r^1.5, 15 min): heat that grows with the heat already put in
+slow_heat           lag(r^1.5, 1 h): heat through a further, slow store (the form's lags act on it)
+sensor_lag          a fixed form, not a regressor: each temperature channel read through a first-order lag
+                    of the simulation plus its correction (the form's lags are the lags tried per channel)
+=================== ======================================================================================
+
+The calibration null (:func:`null_design`) is what imperfect parameters of the simulation produce: per channel
+an offset, the simulated excess and two lags of it (gain and time-constant errors), lagged speed heat, and
+lags of every recorded input the simulation responds to (as the user says, or :func:`detect_inputs`): that
+input's path with a wrong gain or time constant. A mechanism driven by such an input is nested in the null:
+it cannot be told from that path's error, and the finder says so instead of naming it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from thermodrift.core.physics.sensors import first_order_lag
+
+INPUT_ROLES = ("ambient", "coolant_inlet", "cutting_power", "axis_velocity")
+DRIVERS = (*INPUT_ROLES, "speed_power", "speed_squared", "speed_convection", "heat_feedback", "slow_heat",
+           "sensor_lag")
+HEAT_EXPONENT = 1.5
+NULL_SIM_TAUS = (900.0, 3600.0)             # lags of the simulated excess in the null (s)
+NULL_HEAT_TAUS = (900.0, 3600.0, 10800.0)   # lags of speed heat in the null (s)
+ID_TAUS = (300.0, 1800.0, 7200.0, 28800.0)  # lags an input's response is identified with (s)
+NULL_INPUT_TAUS = (1800.0, 7200.0, 28800.0)  # lags of each input the simulation responds to, in the null (s)
+ID_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)
+RESPONDS = 0.01     # an input counts as driving the simulation when its lags explain 1 % of the channel's
+                    # simulated range and half the channel's noise beyond what speed explains
+
+
+@dataclass
+class Inputs:
+    """The recording's drivers on its times ``t`` (s): speed ratio r, and each recorded input (zero at start)."""
+
+    t: np.ndarray
+    r: np.ndarray
+    inputs: dict[str, np.ndarray]
+
+    @classmethod
+    def of(cls, recording) -> "Inputs":
+        t = recording.time_s
+        speed = recording.speed.to_numpy(dtype=float).clip(min=0.0)
+        top = float(speed.max()) if speed.max() > 0 else 1.0
+        inputs = {}
+        for role in INPUT_ROLES:
+            cols = recording.columns(role)
+            if not cols:
+                continue
+            x = recording.data[cols[0]].to_numpy(dtype=float)
+            if np.ptp(x) <= 0:
+                continue
+            if role == "axis_velocity":
+                x = (np.abs(x) / 10000.0) ** 1.4
+            elif role == "cutting_power":
+                x = x / 1000.0
+            inputs[role] = x - x[0]
+        return cls(t, speed / top, inputs)
+
+    def lag(self, x: np.ndarray, tau_s: float) -> np.ndarray:
+        return first_order_lag(x, self.t, tau_s)
+
+    def heat(self) -> np.ndarray:
+        return self.r ** HEAT_EXPONENT
+
+
+def form_of(cls) -> dict | None:
+    """A mechanism class's declared form for the simulation-given mode (None: it declares none)."""
+    form = getattr(cls, "simulation_form", None)
+    return dict(form) if form else None
+
+
+def missing(form: dict, inputs: Inputs) -> str | None:
+    """Why the recording cannot drive this form (a missing or constant input), else None."""
+    d = form["driver"]
+    if d not in DRIVERS:
+        return f"its declared driver {d!r} is none of {', '.join(DRIVERS)}"
+    if d in INPUT_ROLES and d not in inputs.inputs:
+        return f"the recording has no varying {d} channel"
+    if d not in INPUT_ROLES and d != "sensor_lag" and np.ptp(inputs.r) <= 0:
+        return "the spindle speed is constant"
+    return None
+
+
+def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.ndarray) -> list[np.ndarray]:
+    """The form's driver series before its lag (one per exponent for ``speed_power``); ``sim_excess`` the
+    channel's simulated excess, ``amb_excess`` the mean simulated temperature excess over ambient."""
+    d = form["driver"]
+    if d in INPUT_ROLES:
+        return [inputs.inputs[d]]
+    if d == "speed_power":
+        return [inputs.r ** p for p in form.get("exponents", (0.75, 3.0))]
+    if d == "speed_squared":
+        return [inputs.r ** 2]
+    if d == "speed_convection":
+        return [-(inputs.r ** 0.8) * amb_excess]
+    if d == "heat_feedback":
+        h = inputs.heat()
+        return [h * inputs.lag(h, 900.0)]
+    if d == "slow_heat":
+        return [inputs.lag(inputs.heat(), 3600.0)]
+    raise ValueError(d)
+
+
+def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> list[str]:
+    """The recorded inputs the simulation responds to, read from its traces when the user does not say:
+    per channel the simulated excess regressed on lagged powers of speed and lagged inputs; an input counts
+    when leaving its lags out raises the regression's RMS error (in quadrature) by :data:`RESPONDS` of the
+    channel's simulated range and half its noise on any channel. Inputs that move with the speed (cutting
+    while running) can be counted when they do not drive the simulation: the mechanisms they drive are then
+    reported nested, never named wrongly."""
+    if not inputs.inputs:
+        return []
+    cols, owner = [np.ones_like(inputs.r)], ["offset"]
+    for power in (1.0, HEAT_EXPONENT, 2.0):
+        for tau in ID_HEAT_TAUS:
+            cols.append(inputs.lag(inputs.r ** power, tau))
+            owner.append("speed")
+    for role, x in inputs.inputs.items():
+        for tau in ID_TAUS:
+            cols.append(inputs.lag(x, tau))
+            owner.append(role)
+    X = np.column_stack(cols)
+    Xs = X / np.maximum(np.abs(X).max(axis=0), 1e-12)
+    G = Xs.T @ Xs
+    every = list(range(X.shape[1]))
+    found = set()
+    for j in range(excess.shape[1]):
+        y = excess[:, j]
+        b, yy = Xs.T @ y, float(y @ y)
+
+        def rms_left(keep: list[int]) -> float:
+            beta = ridge_solve(G[np.ix_(keep, keep)], b[keep])
+            return float(np.sqrt(max(yy - beta @ b[keep], 0.0) / len(y)))
+
+        full = rms_left(every)
+        for role in inputs.inputs:
+            without = rms_left([i for i in every if owner[i] != role])
+            if np.sqrt(max(without ** 2 - full ** 2, 0.0)) > max(RESPONDS * float(np.ptp(y)), 0.5 * spans_sigma[j]):
+                found.add(role)
+    return [r for r in INPUT_ROLES if r in found]
+
+
+def ridge_solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Normal equations G β = b of columns scaled to unit size, with a vanishing ridge (1e-9 of the mean
+    diagonal) so that near-collinear lags (a simulated excess and its lags) stay solvable."""
+    k = len(b)
+    if k == 0:
+        return np.zeros(0)
+    lam = 1e-9 * float(np.trace(G)) / k + 1e-300
+    return np.linalg.solve(G + lam * np.eye(k), b)
+
+
+def null_design(inputs: Inputs, sim_excess: np.ndarray, simulated: list[str]) -> np.ndarray:
+    """The calibration null's columns for one channel (see the module docstring)."""
+    cols = [np.ones_like(sim_excess), sim_excess]
+    cols += [inputs.lag(sim_excess, tau) for tau in NULL_SIM_TAUS]
+    h = inputs.heat()
+    cols += [inputs.lag(h, tau) for tau in NULL_HEAT_TAUS]
+    for role in simulated:
+        cols += [inputs.lag(inputs.inputs[role], tau) for tau in NULL_INPUT_TAUS]
+    return np.column_stack(cols)

@@ -1,0 +1,148 @@
+"""``diagnose --simulation``: the simulation table (read, checked, put on the recording's times), ``simulate
+--drive``, and the finder against the user's own simulation on the independent generator's cases."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from thermodrift.core import cli, registry
+from thermodrift.core.errors import InputError
+from thermodrift.core.physics import load_network
+from thermodrift.core.physics.diagnose import against_simulation, simulation_table
+from thermodrift.core.physics.mechanisms import Mechanism
+from thermodrift.core.recording import load_recording
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "benchmarks"))
+
+from independent.user_sim import make_sim_case  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def cutting(tmp_path_factory):
+    """A recording with cutting heat the user's simulation leaves out (parameters off by 0.2), on disk."""
+    gen, sim = make_sim_case(2, "cutting_heat", "fd", 0.2, False)
+    folder = tmp_path_factory.mktemp("cutting")
+    table, manifest = gen.write(folder)
+    sim_path = folder / "sim.csv"
+    sim.to_csv(sim_path, index=False)
+    return gen, sim, table, manifest, sim_path
+
+
+def test_a_finer_simulation_is_put_on_the_recordings_times(cutting):
+    gen, sim, table, manifest, _ = cutting
+    rec = load_recording(table, manifest)
+    t = sim["time_s"].to_numpy()
+    fine_t = np.arange(t[0], t[-1] + 1e-9, 30.0)
+    fine = pd.DataFrame({c: np.interp(fine_t, t, sim[c]) for c in sim.columns if c != "time_s"})
+    fine.insert(0, "time_s", fine_t)
+    out = simulation_table.align(fine, rec)
+    assert np.allclose(out.index, rec.time_s)
+    assert np.allclose(out["disp_z_um"], sim["disp_z_um"], atol=1e-9)
+
+
+@pytest.mark.parametrize("change,message", [
+    ("gap", "gap from"), ("late", "covers"), ("outside", "outside the recording"), ("nan", "missing value"),
+    ("nodisp", "no displacement channel")])
+def test_a_simulation_that_does_not_fit_the_recording_is_one_line(cutting, change, message):
+    gen, sim, table, manifest, _ = cutting
+    rec = load_recording(table, manifest)
+    bad = sim.copy()
+    if change == "gap":
+        bad = bad.drop(index=[100, 101, 102])
+    elif change == "late":
+        bad = bad.iloc[5:]
+    elif change == "outside":
+        bad.loc[len(bad)] = bad.iloc[-1] + 0.0
+        bad.loc[len(bad) - 1, "time_s"] = rec.time_s[-1] + 60.0
+    elif change == "nan":
+        bad.loc[50, "disp_z_um"] = np.nan
+    else:
+        bad = bad.drop(columns=[c for c in bad if c.startswith("disp_")])
+    with pytest.raises(InputError, match=message) as err:
+        simulation_table.align(bad, rec)
+    assert "\n" not in str(err.value)
+
+
+def test_the_left_out_cutting_heat_is_named_and_the_cli_writes_the_report(cutting, tmp_path, capsys):
+    gen, sim, table, manifest, sim_path = cutting
+    out = tmp_path / "dx"
+    code = cli.main(["diagnose", str(table), "--manifest", str(manifest), "--simulation", str(sim_path),
+                     "--simulation-inputs", "ambient", "coolant_inlet", "--out", str(out)])
+    assert code == 0
+    doc = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert list(doc)[:5] == ["baseline", "findings", "rejected", "augmented", "verdict"]
+    (f,) = doc["findings"]
+    assert f["mechanism"] == "cutting_heat"
+    assert set(f["ci"]) == set(f["parameters"]) and all(
+        np.isfinite(f["ci"][k]).all() and f["ci"][k][0] <= v <= f["ci"][k][1] for k, v in f["parameters"].items())
+    assert all(list(w) == ["channel", "start_s", "end_s"] for w in f["where"]) and f["where"]
+    ch = gen.drift_channel
+    assert doc["augmented"]["heldout_rmse_um"][ch] < 0.7 * doc["baseline"]["heldout_rmse_um"][ch]
+    status = {m["mechanism"]: m["status"] for m in doc["adequacy"]["mechanisms"]}
+    assert status["ambient_coupling"] == "nested" and status["coolant_coupling"] == "nested"
+    assert status["thermal_tilt"] == "untestable" and status["cutting_heat"] == "tested"
+    assert set(status) == set(registry.default().names("mechanism"))
+    for name in ("report.md", "residuals.csv", "fit.png"):
+        assert (out / name).stat().st_size > 0
+
+
+def test_a_null_case_names_nothing():
+    gen, sim = make_sim_case(501, None, "fd", 0.2, True)
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        rec = load_recording(*gen.write(Path(tmp)))
+    d = against_simulation.diagnose_simulation(rec, sim, simulated_inputs=gen.info["simulated_inputs"])
+    assert d.findings == []
+    assert all(r["reason"] for r in d.rejected)
+
+
+class _FanHeat(Mechanism):
+    """A third-party mechanism: heat that follows the cutting power, declared for the simulation mode only."""
+
+    id = "fan_heat"
+    signature = "follows cutting power"
+    simulation_form = {"driver": "cutting_power", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1}
+
+
+def test_a_third_party_mechanism_takes_part_through_its_declared_form(cutting):
+    gen, sim, table, manifest, _ = cutting
+    reg = registry.load()
+    reg.add("mechanism", "fan_heat", _FanHeat)
+    rec = load_recording(table, manifest)
+    d = against_simulation.diagnose_simulation(rec, sim, simulated_inputs=["ambient", "coolant_inlet"], registry=reg,
+                                               only=["fan_heat", "bearing_heat_law", "thermal_tilt"])
+    assert [f["mechanism"] for f in d.findings] == ["fan_heat"]
+    listed = {m["mechanism"]: m for m in d.adequacy["mechanisms"]}
+    assert listed["fan_heat"]["status"] == "tested" and listed["fan_heat"]["passed"]
+    assert "declares no form" in listed["thermal_tilt"]["reason"]
+
+
+def test_simulate_drive_writes_a_table_diagnose_reads(tmp_path):
+    from thermodrift.core.physics.diagnose.concealed import concealed_case
+
+    case = concealed_case(load_network("demo_spindle"), None, 3, dt_s=300.0, hours=8.0)
+    table, manifest = tmp_path / "rec.csv", tmp_path / "rec.yaml"
+    case.recording.write(table, manifest)
+    net = tmp_path / "net.yaml"
+    import yaml
+
+    from thermodrift.core import physics
+    net.write_text(yaml.safe_dump(physics.network_to_dict(case.baseline)), encoding="utf-8")
+    sim = tmp_path / "sim.parquet"
+    assert cli.main(["simulate", "--network", str(net), "--drive", str(table), "--manifest", str(manifest),
+                     "--out", str(sim)]) == 0
+    rec = load_recording(table, manifest)
+    frame = simulation_table.read_simulation(sim, rec, manifest)
+    assert set(frame.columns) == set(simulation_table.simulated_channels(rec))
+    disp = rec.columns("displacement")[0]
+    # the network that made the recording, driven by its inputs, reads what it read up to noise and offsets
+    r = rec.data[disp].to_numpy() - frame[disp].to_numpy()
+    assert np.std(r) < 0.1 * np.std(rec.data[disp].to_numpy())
+    assert cli.main(["simulate", "--network", str(net), "--drive", str(table), "--out", str(sim)]) == 2
