@@ -26,6 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from thermodrift.compensator import runtime
+from thermodrift.compensator.errors import InputError
 from thermodrift.compensator.probe import BiasFilter
 
 STATUSES = ("ok", "rate_limited", "clamped", "held", "fallback")
@@ -57,6 +58,9 @@ class Compensator:
                  limits: bool = True, probes: list[tuple[float, int, float]] | None = None,
                  history: np.ndarray | None = None, history_times_s: np.ndarray | None = None):
         self.package = package
+        for name, value in (("max_step_um", max_step_um), ("clamp_um", clamp_um)):
+            if value is not None:
+                positive(name, value, "µm")
         safety = package.safety
         ins, tg = package.inputs, package.targets
         self.limits = limits
@@ -210,3 +214,17 @@ class Compensator:
 
 
 REASONS = ("ok", "missing", "out_of_range", "stuck", "jump")
+
+
+def positive(name: str, value, unit: str) -> float:
+    """``value`` as a float if it is finite and above zero; else :class:`InputError` naming the option ``name``
+    (a negative rate limit or clamp would write nonsense to a machine)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if not (np.isfinite(number) and number > 0):
+        raise InputError(f"{name} is {value!r}; it must be a positive finite number ({unit})",
+                         hint="leave it out for the package's default" if name in ("max_step_um", "clamp_um")
+                         else None)
+    return number

@@ -3,18 +3,21 @@ compensator package one row at a time, as a controller calls it, and write the v
 
 Rows are read with the manifest's column names and units (converted to the units the model was trained in);
 ``--input -`` reads CSV rows from stdin as they arrive. An empty or non-numeric cell is a fault of that row
-(held or fallback, named in the audit), never interpolated and never a reason to stop. A missing column, an
-unknown unit or a package that does not load stops before the first row: one line, exit code 2.
+(held or fallback, named in the audit), never interpolated and never a reason to stop. Whatever cannot be
+trusted (a limit that is not a positive finite number, a damaged package, a malformed probe file, a missing output
+folder, an input without rows, an unknown format or unit) stops before the first row: one line, exit code 2,
+nothing written. This module only parses options; the checks and the per-row loop are
+:mod:`thermodrift.compensator.stream`'s.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
+import difflib
 import sys
-from pathlib import Path
 
 from thermodrift.core.cli import options
+from thermodrift.core.errors import InputError
 
 FORMAT_HELP = "csv (default): time_s, <target>_um, <target>_raw_um, <target>_status; siemens, fanuc, beckhoff"
 
@@ -25,7 +28,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
                                                        "rows on stdin")
     parser.add_argument("--manifest", required=True, help="YAML manifest naming the table's columns and units")
     options.add_out(parser, "values to write (CSV), or - for stdout")
-    parser.add_argument("--cnc", default="csv", choices=("csv", "siemens", "fanuc", "beckhoff"), help=FORMAT_HELP)
+    parser.add_argument("--cnc", default="csv", help=FORMAT_HELP)
     parser.add_argument("--audit", default=None, help="JSON lines: every written value with inputs, raw "
                                                       "prediction, limits and reasons")
     parser.add_argument("--max-step-um", type=float, default=None,
@@ -46,97 +49,57 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import numpy as np
-
     from thermodrift import compensator
-    from thermodrift.compensator import cnc
+    from thermodrift.compensator import cnc, stream
     from thermodrift.compensator.audit import Audit
-    from thermodrift.core.errors import InputError
 
-    try:
-        pkg = compensator.load(args.package)
-    except (compensator.PackageError, ValueError) as exc:
-        raise InputError(f"not a usable compensator package ({exc})", file=args.package,
-                         hint="pass the folder that `thermodrift export` wrote") from None
+    # Everything is checked before the first row, so a refusal writes nothing (one line, exit code 2).
+    stream.check_settings({"--max-step-um": (args.max_step_um, "µm"), "--clamp-um": (args.clamp_um, "µm"),
+                           "--detection-unit-um": (args.detection_unit_um, "µm"),
+                           "--max-axis-velo-mm-min": (args.max_axis_velo_mm_min, "mm/min"),
+                           "--velo-factor": (args.velo_factor, "a fraction"),
+                           "--ipo-cycle-ms": (args.ipo_cycle_ms, "ms"),
+                           "--reference-mm": (args.reference_mm, "mm")}, finite=("--reference-mm",))
+    _check_format(args.cnc, cnc.FORMATS)
+    stream.check_writable(args.out, "output")
+    stream.check_writable(args.audit, "audit log")
+    pkg = compensator.load(args.package)
     time_col, time_scale, convert = _manifest(args.manifest, pkg.inputs)
-    probes = _probes(args.probe, pkg.targets) if args.probe else None
+    probes = stream.read_probes(args.probe, pkg.targets) if args.probe else None
+    header, rows = stream.open_rows(args.input)
+    parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
     writer = cnc.Writer(pkg, args.cnc, reference_mm=args.reference_mm, detection_unit_um=args.detection_unit_um,
                         max_axis_velo_mm_min=args.max_axis_velo_mm_min, velo_factor=args.velo_factor,
                         ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
-    source = args.input
-    header, rows = _rows(source)
-    where = {name.strip(): i for i, name in enumerate(header)}
-    for column in [time_col, *convert]:
-        if column not in where:
-            raise InputError("column not found in the input header", file=source, column=column,
-                             hint=f"the package reads {', '.join(pkg.inputs)} and the time column {time_col!r}")
-    t_idx = where[time_col]
-    idx = [where[c] for c in pkg.inputs]
-    scale = np.array([convert[c][0] for c in pkg.inputs])
-    offset = np.array([convert[c][1] for c in pkg.inputs])
     out = sys.stdout if args.out == "-" else open(args.out, "w", newline="", encoding="utf-8")
     audit_fh = open(args.audit, "w", encoding="utf-8") if args.audit else None
     try:
-        table = csv.writer(out)
-        table.writerow(writer.header())
-        audit = Audit(audit_fh, pkg, comp) if audit_fh else None
-        for cells in rows:
-            t = _number(cells[t_idx] if t_idx < len(cells) else "") * time_scale
-            values = np.array([_number(cells[i]) if i < len(cells) else np.nan for i in idx]) * scale + offset
-            step = comp.hold_row(t, values, [("time", "time_unreadable")]) if not np.isfinite(t) \
-                else comp.update(t, values)
-            table.writerows(writer.rows(step))
-            if audit is not None:
-                audit.write(step, values)
-            if args.out == "-" or source == "-":
-                out.flush()  # a controller reads each value as it is written
+        n = stream.run(comp, writer, rows, parse, out, Audit(audit_fh, pkg, comp) if audit_fh else None,
+                       flush=args.out == "-" or args.input == "-")
     finally:
         if out is not sys.stdout:
             out.close()
         if audit_fh:
             audit_fh.close()
+    if args.out != "-":
+        print(f"wrote {args.cnc} values for {n} input rows to {args.out}"
+              + (f", audit in {args.audit}" if args.audit else ""))
     return 0
 
 
-def _number(cell) -> float:
-    """A cell as a float; empty or non-numeric -> NaN (a fault of that row, handled downstream)."""
-    try:
-        return float(cell)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
-def _rows(source: str):
-    """(header, iterator of rows as lists of cells): CSV streamed line by line (stdin for ``-``); Parquet and
-    XLSX read whole."""
-    from thermodrift.core.errors import InputError
-
-    if source == "-":
-        reader = csv.reader(sys.stdin)
-    else:
-        path = Path(source)
-        if not path.is_file():
-            raise InputError("input table not found", file=source, hint="check the path, or pass - for stdin")
-        if path.suffix.lower() in (".parquet", ".xlsx"):
-            import pandas as pd
-
-            frame = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_excel(path)
-            return [str(c) for c in frame.columns], iter(frame.astype(object).to_numpy().tolist())
-        reader = csv.reader(open(path, newline="", encoding="utf-8-sig"))
-    try:
-        header = next(reader)
-    except StopIteration:
-        raise InputError("the input has no header row", file=source,
-                         hint="the first line names the columns, as in the manifest") from None
-    return header, reader
+def _check_format(name: str, known) -> None:
+    """One line with "did you mean" for an unknown ``--cnc`` format, as every other verb answers a misspelt name."""
+    if name not in known:
+        close = difflib.get_close_matches(name, list(known), n=1)
+        raise InputError(f"unknown CNC format {name!r}", hint=(f"did you mean {close[0]!r}? " if close else "")
+                         + f"choose from {', '.join(sorted(known))}")
 
 
 def _manifest(path: str, inputs: list[str]):
     """(time column, time scale to s, {input column: (scale, offset)} to the canonical units the model was
     trained in), read with core/recording's manifest reader and unit table (one home for units)."""
-    from thermodrift.core.errors import InputError
     from thermodrift.core import recording  # its manifest reader and unit table
 
     manifest = recording.read_manifest(path, ())
@@ -153,25 +116,3 @@ def _manifest(path: str, inputs: list[str]):
         convert[c] = recording.UNITS[role][1][unit]
     unit = manifest.time_unit or "s"
     return manifest.time, recording.TIME_UNITS[unit], convert
-
-
-def _probes(path: str, targets: list[str]) -> list[tuple[float, int, float]]:
-    """Probe rows (time_s, target, um) as (time s, target index, µm)."""
-    import pandas as pd
-
-    from thermodrift.core.errors import InputError
-
-    if not Path(path).is_file():
-        raise InputError("probe file not found", file=path, hint="a CSV with columns time_s, target, um")
-    frame = pd.read_csv(path)
-    for column in ("time_s", "target", "um"):
-        if column not in frame.columns:
-            raise InputError("column not found", file=path, column=column,
-                             hint="a probe file has columns time_s, target, um")
-    out = []
-    for row, (t, target, um) in enumerate(frame[["time_s", "target", "um"]].itertuples(index=False), start=2):
-        if str(target) not in targets:
-            raise InputError(f"unknown target {target!r}", file=path, column="target", row=row,
-                             hint=f"the package's targets are {', '.join(targets)}")
-        out.append((float(t), targets.index(str(target)), float(um)))
-    return out
