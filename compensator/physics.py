@@ -6,6 +6,12 @@ tabulates dT/dt = A(n)·T + B(n)·[1, T_ambient, T_coolant] over the levels from
 maximum. Per row the observer steps the node temperatures with the exact discretisation at the row's time step
 (matrix exponential) corrected by a steady-state Kalman gain (discrete algebraic Riccati equation), both cached
 per (level, step); displacement (µm) = x·W_x + T·W_T + ambient·w_ambient + c. scipy does both matrix functions.
+
+This module is the project's one home of the Kalman step (the compensator is the lowest layer, so the framework
+imports it from here): :func:`exact_step` (zero-order-hold discretisation), :func:`steady_filter` (the stationary
+gain and the filtered-state recursion) and :func:`kalman_update` (one time-varying measurement update), used by
+this runtime, ``core.physics.calibration.StateObserver`` and the stochastic grey-box engine
+(``core.physics.stochastic``).
 """
 
 from __future__ import annotations
@@ -14,6 +20,41 @@ import numpy as np
 from scipy.linalg import expm, solve_discrete_are
 
 from thermodrift.compensator.runtime import Base
+
+
+def exact_step(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """(Φ, Γ) of dx/dt = A x + B u over a step ``dt`` (A's time unit) with u held: one matrix exponential of the
+    augmented matrix [[A, B], [0, 0]]·dt."""
+    N, M = B.shape
+    aug = np.zeros((N + M, N + M))
+    aug[:N, :N], aug[:N, N:] = A * dt, B * dt
+    E = expm(aug)
+    return E[:N, :N], E[:N, N:]
+
+
+def steady_filter(Phi: np.ndarray, Gam: np.ndarray, C: np.ndarray, Q: np.ndarray, R: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The stationary Kalman filter of x_k = Φ x_{k−1} + Γ u_{k−1} + w (cov Q), y_k = C x_k + v (cov R):
+    (F, G, K, P) with the filtered state x_k = F x_{k−1} + G u_{k−1} + K y_k, F = (I − KC)Φ, G = (I − KC)Γ,
+    K = P Cᵀ (C P Cᵀ + R)⁻¹ and P the predicted-state covariance (discrete algebraic Riccati equation).
+    Without measurements (C has no row) K is empty and P is None."""
+    N = len(Phi)
+    if len(C):
+        P = solve_discrete_are(Phi.T, C.T, Q, R)
+        K = P @ C.T @ np.linalg.inv(C @ P @ C.T + R)
+    else:
+        P, K = None, np.zeros((N, 0))
+    IKC = np.eye(N) - K @ C
+    return IKC @ Phi, IKC @ Gam, K, P
+
+
+def kalman_update(x: np.ndarray, P: np.ndarray, e: np.ndarray, C: np.ndarray, R: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One measurement update of a predicted state ``x`` with covariance ``P`` by the innovation ``e`` = y − C x
+    (− D u): (filtered x, filtered P, innovation covariance S = C P Cᵀ + R)."""
+    S = C @ P @ C.T + R
+    K = np.linalg.solve(S, C @ P).T
+    return x + K @ e, P - K @ S @ K.T, S
 
 
 class Runtime(Base):
@@ -51,19 +92,9 @@ class Runtime(Base):
         key = (speed_rpm, dt_s)
         hit = self._levels.get(key)
         if hit is None:
-            A, B = self.matrices(speed_rpm)
-            N, M = B.shape
-            aug = np.zeros((N + M, N + M))
-            aug[:N, :N], aug[:N, N:] = A * dt_s, B * dt_s
-            E = expm(aug)
-            Phi, Gam = E[:N, :N], E[:N, N:]
-            if len(self.C):
-                P = solve_discrete_are(Phi.T, self.C.T, np.diag(self.q * dt_s) + 1e-12 * np.eye(N), self.R)
-                K = P @ self.C.T @ np.linalg.inv(self.C @ P @ self.C.T + self.R)
-            else:
-                K = np.zeros((N, 0))
-            IKC = np.eye(N) - K @ self.C
-            F, G = IKC @ Phi, IKC @ Gam
+            Phi, Gam = exact_step(*self.matrices(speed_rpm), dt_s)
+            N = len(Phi)
+            F, G, K, _ = steady_filter(Phi, Gam, self.C, np.diag(self.q * dt_s) + 1e-12 * np.eye(N), self.R)
             hit = self._levels[key] = np.hstack([F, K, (G[:, 0] - K @ self.offsets)[:, None], G[:, 1:3]])
         return hit
 

@@ -41,7 +41,8 @@ def sim(net, scen=RICH):
 
 
 def test_the_thirteen_mechanisms_are_registered_with_documented_parameters(reg):
-    assert sorted(reg.names("mechanism")) == sorted(MECHANISMS)
+    machine = [n for n in reg.names("mechanism") if not n.startswith("building_")]  # building RC library apart
+    assert sorted(machine) == sorted(MECHANISMS)
     for name in MECHANISMS:
         cls = reg.get("mechanism", name).factory
         assert cls.id == name and cls.signature and cls.parameters

@@ -4,7 +4,8 @@ corrects the simulated state with the measured temperatures (:class:`StateObserv
 The observer is a steady-state Kalman filter over the network, per operating level (speed, coolant flow, step):
 x⁻ = Φ x + Γ u (the engine's step matrices, inputs held over the step), x = x⁻ + K (y − offsets − C x⁻), where
 C maps nodes to the temperature sensors it uses (lag-free sensors reading nodes), K the stationary gain of the
-discrete Riccati equation with measurement noise σ² per sensor and process noise ``process_K²·dt/τ`` per node
+discrete Riccati equation (the compensator's Kalman step,
+:func:`thermodrift.compensator.physics.steady_filter`) with measurement noise σ² per sensor and process noise ``process_K²·dt/τ`` per node
 (``τ`` the node's own time constant C/ΣG, so ``process_K`` is the model error over one time constant). Unobserved
 nodes (the auto network's hidden nodes) run open loop. Over a block of steps at one level the filter is linear
 and time-invariant, so a batch runs through the engine's propagator (:func:`integrate.propagate`) and a
@@ -17,8 +18,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from scipy.linalg import solve_discrete_are
 
+from thermodrift.compensator.physics import steady_filter
 from thermodrift.core.physics.integrate import CompiledNetwork, propagate
 from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.scenarios import Scenario
@@ -101,13 +102,8 @@ class StateObserver:
         key = (speed, coolant_flow, dt)
         if key not in self._levels:
             Phi, Gam = self.comp.step(speed, coolant_flow, dt, "exact")
-            if len(self.sensors):
-                P = solve_discrete_are(Phi.T, self.C.T, np.diag(self.q * dt) + 1e-12 * np.eye(len(Phi)), self.R)
-                K = P @ self.C.T @ np.linalg.inv(self.C @ P @ self.C.T + self.R)
-            else:
-                K = np.zeros((len(Phi), 0))
-            IKC = np.eye(len(Phi)) - K @ self.C
-            self._levels[key] = (IKC @ Phi, IKC @ Gam, K)
+            Q = np.diag(self.q * dt) + 1e-12 * np.eye(len(Phi))
+            self._levels[key] = steady_filter(Phi, Gam, self.C, Q, self.R)[:3]
         return self._levels[key]
 
     def start(self, speed: float, ambient: float, coolant: float, temperatures: np.ndarray) -> np.ndarray:

@@ -1,0 +1,135 @@
+"""Forward selection of a building's structure (Bacher & Madsen 2011): from the one-state model, each round fits
+every one-step extension of the current model (each building mechanism that has a place in it), keeps the best
+by likelihood and accepts it when the likelihood-ratio test against the current model is significant at
+``alpha`` (default 0.05, the field's usual level): LR = 2 (ℓ₁ − ℓ₀) ~ χ²(k₁ − k₀). Otherwise it stops.
+
+Starts: the one-state model from a least-squares fit of its Euler discretisation (ΔTi/Δt on Ta − Ti, Ps and the
+heating), so the search begins at the recording's own heat scale; each extension from the current model's
+estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`), with
+``starts − 1`` more points drawn from ``seed``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from thermodrift.core.physics.stochastic import whiteness
+from thermodrift.core.physics.stochastic.building import htc, structure_name
+from thermodrift.core.physics.stochastic.fit import Estimate, fit
+from thermodrift.core.physics.stochastic.rc import RCNetwork
+from thermodrift.core.physics.stochastic.sde import Series
+
+ALPHA = 0.05
+DEFAULT_HTC = 0.2  # the building mechanisms' defaults: 1 / Ria = 1 / (5 K/kW)
+
+
+@dataclass
+class Step:
+    """One accepted model (or the last rejected best): its name, estimate, LR test against its parent."""
+
+    name: str
+    estimate: Estimate
+    lr: float | None = None
+    df: int | None = None
+    p_value: float | None = None
+    accepted: bool = True
+    whiteness: dict = field(default_factory=dict)
+    candidates: list[dict] = field(default_factory=list)
+
+    def record(self) -> dict:
+        """JSON-ready: name, loglik, n_params, lr, df, p_value, accepted, whiteness, candidates, seconds."""
+        return {"name": self.name, "loglik": self.estimate.loglik, "n_params": self.estimate.n_params,
+                "lr": self.lr, "df": self.df, "p_value": self.p_value, "accepted": self.accepted,
+                "whiteness": self.whiteness, "candidates": self.candidates,
+                "seconds": round(self.estimate.seconds, 2)}
+
+
+@dataclass
+class Selection:
+    """The path (first: the one-state model; last may be a rejected extension) and the selected estimate."""
+
+    path: list[Step]
+    selected: Step
+    alpha: float
+    seconds: float
+
+
+def ti_start(net: RCNetwork, data: Series) -> RCNetwork:
+    """Start values of the one-state model from a least-squares fit of its Euler discretisation (see the module
+    docstring); the defaults where the fit gives a non-physical sign."""
+    names = net.input_names
+    ta, phi = names.index(net.input_of("ambient")), names.index(net.input_of("heating"))
+    solar = names.index(net.input_of("solar_irradiance")) if net.has_input("solar_irradiance") else None
+    y, u, dt = data.y[:, 0], data.u, np.diff(data.t)
+    cols = [(u[:-1, ta] - y[:-1]), u[:-1, phi]] + ([u[:-1, solar]] if solar is not None else [])
+    X = np.column_stack(cols)
+    rate = np.diff(y) / dt
+    coef, *_ = np.linalg.lstsq(X, rate, rcond=None)
+    a, c = coef[0], coef[1]
+    if not (a > 0 and c > 0):
+        return net
+    ci = 1.0 / c
+    values = {"Ci": ci, "Ria": 1.0 / (a * ci), "sigma_ti": float(np.std(rate - X @ coef) * math.sqrt(np.median(dt)))}
+    if solar is not None and coef[2] > 0:
+        values["Aw"] = coef[2] * ci
+    return net.with_values(values)
+
+
+def _whiteness(est: Estimate) -> dict:
+    return whiteness.summary(est.filtered().standardized[:, 0])
+
+
+def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0, starts: int = 2,
+                   alpha: float = ALPHA, progress=None) -> Selection:
+    """Forward selection from ``net`` (the one-state model; see the module docstring). ``progress``: called
+    with a line of text per fitted candidate."""
+    from thermodrift.core.physics.stochastic.building import BuildingMechanism, rescaled
+
+    if registry is None:
+        from thermodrift.core import registry as registry_module
+
+        registry = registry_module.default()
+    mechs = [registry.get("mechanism", m).factory for m in registry.names("mechanism")]
+    mechs = [m for m in mechs if isinstance(m, type) and issubclass(m, BuildingMechanism)]
+    clock = time.perf_counter()
+    est = fit(ti_start(net, data), data, seed=seed, starts=starts, information=False)
+    current = Step(structure_name(net), est, whiteness=_whiteness(est))
+    if progress:
+        progress(f"{current.name}: loglik {est.loglik:.1f}")
+    path = [current]
+    while True:
+        scale = htc(current.estimate.model, current.estimate.values) / DEFAULT_HTC
+        base = current.estimate.model.with_values(current.estimate.values)
+        tried = []
+        for m in mechs:
+            if not m.places(base):
+                continue
+            ext = m().apply(base)
+            new = {p.name for p in ext.params} - {p.name for p in base.params}
+            start = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0)
+            ext = ext.with_values({k: v for k, v in start.values().items() if k in new})
+            e = fit(ext, data, seed=seed, starts=starts, information=False)
+            tried.append(e)
+            if progress:
+                progress(f"  {structure_name(ext)}: loglik {e.loglik:.1f} ({e.seconds:.1f} s)")
+        if not tried:
+            break
+        best = max(tried, key=lambda e: e.loglik)
+        df = best.n_params - current.estimate.n_params
+        lr = max(2.0 * (best.loglik - current.estimate.loglik), 0.0)
+        p = float(chi2.sf(lr, df))
+        step = Step(structure_name(best.model), best, lr, df, p, p < alpha, _whiteness(best),
+                    [{"name": structure_name(e.model), "loglik": e.loglik, "n_params": e.n_params} for e in tried])
+        path.append(step)
+        if not step.accepted:
+            break
+        current = step
+    from thermodrift.core.physics.stochastic.fit import add_information
+
+    add_information(current.estimate)
+    return Selection(path, current, alpha, time.perf_counter() - clock)
