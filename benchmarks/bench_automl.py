@@ -207,7 +207,7 @@ def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
         return None
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
     targets = study.targets_of(recording, spec.targets)
-    inputs = [c for role in (*INPUT_ROLES, "speed", "cutting_power") for c in recording.columns(role)]
+    inputs = study.input_columns(recording, (*INPUT_ROLES, "speed", "cutting_power"), targets)
     raw = recording.data[inputs].to_numpy(dtype=float)
     roles = {c: recording.channels[c].role for c in inputs}
     stage = FeatureStage.fit(raw[fold.train], inputs, roles, recording.time_s[fold.train],

@@ -1,7 +1,8 @@
 """Controller formats: the values a CNC accepts, in the units and step limits its documentation fixes.
 
 - ``csv``: ``time_s``, then per target ``<target>_um`` (written), ``<target>_raw_um`` (the model's prediction),
-  ``<target>_status``.
+  ``<target>_status``; a temperature target (its ``axes`` entry has ``unit: degC``) writes ``<target>_degC`` and
+  ``<target>_raw_degC`` instead. The CNC formats below take displacement targets only.
 - ``siemens`` (SINUMERIK 840D sl temperature compensation; Function Manual Extended Functions, K3
   Compensations, §4.2 Temperature compensation, 6FC5397-1BP40-3BA1, 03/2013): per axis the setting data
   SD43900 ``$SA_TEMP_COMP_ABS_VALUE`` (position-independent value K0, mm), SD43910 ``$SA_TEMP_COMP_SLOPE``
@@ -85,6 +86,10 @@ class Writer:
             raise ValueError(f"unknown format {fmt!r}; use one of {', '.join(FORMATS)}")
         self.fmt, self.package = fmt, package
         self.targets = package.targets
+        self.units = [str(package.axes.get(t, {}).get("unit", "um")) for t in self.targets]
+        if fmt != "csv" and any(u != "um" for u in self.units):
+            other = next(t for t, u in zip(self.targets, self.units) if u != "um")
+            raise ValueError(f"format {fmt!r} writes displacements; target {other!r} is a temperature: use csv")
         self.axes = axes_of(package)
         self.reference_mm = float(reference_mm)
         self.unit_um = float(detection_unit_um)
@@ -95,7 +100,8 @@ class Writer:
 
     def header(self) -> list[str]:
         if self.fmt == "csv":
-            return ["time_s"] + [f"{t}_{s}" for t in self.targets for s in ("um", "raw_um", "status")]
+            return ["time_s"] + [f"{t}_{s}" for t, u in zip(self.targets, self.units)
+                                 for s in (u, f"raw_{u}", "status")]
         if self.fmt == "fanuc":
             return ["time_s"] + [f"{t}_units" for t in self.targets] + [f"{t}_status" for t in self.targets]
         if self.fmt == "siemens":

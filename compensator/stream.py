@@ -18,6 +18,7 @@ What ``thermodrift compensate`` does, as a library a controller-side program cal
 from __future__ import annotations
 
 import csv
+import datetime
 import itertools
 import sys
 from dataclasses import dataclass
@@ -49,8 +50,10 @@ def open_rows(source: str) -> tuple[list[str], Iterator[list[Any]]]:
                 raise InputError(f"unreadable ({type(exc).__name__})", file=source,
                                  hint="write the table again, or pass CSV") from None
             reader = iter([[str(c) for c in frame.columns], *frame.astype(object).to_numpy().tolist()])
-        else:
-            reader = csv.reader(_lines(path))
+        else:  # ',' or, from European exports, ';' or tabs: the header line tells which (as the recording loader)
+            with open(path, newline="", encoding="utf-8-sig", errors="replace") as fh:
+                first_line = fh.readline()
+            reader = csv.reader(_lines(path), delimiter=max((",", ";", "\t"), key=first_line.count))
     reader = iter(reader)
     try:
         header = [str(c) for c in next(reader)]
@@ -83,6 +86,19 @@ def _checked(reader: Iterable[list[Any]], source: str) -> Iterator[list[Any]]:
                          hint="the rows before it were written") from None
 
 
+def _seconds(cell: Any) -> float:
+    """A time cell without a unit: a number (s), or an ISO timestamp as s since 1970 (UTC unless it says
+    otherwise; only differences matter); NaN where unreadable."""
+    t = _number(cell)
+    if t == t:
+        return t
+    try:
+        stamp = datetime.datetime.fromisoformat(str(cell).strip())
+    except ValueError:
+        return float("nan")
+    return (stamp if stamp.tzinfo else stamp.replace(tzinfo=datetime.timezone.utc)).timestamp()
+
+
 def _number(cell: Any) -> float:
     """A cell as a float; empty or non-numeric -> NaN (a fault of that row, handled downstream)."""
     try:
@@ -94,11 +110,12 @@ def _number(cell: Any) -> float:
 @dataclass
 class Rows:
     """Cells -> (time s, input values in the model's units). ``convert``: input -> (scale, offset) to the
-    canonical unit; ``time_scale_s``: seconds per unit of the time column."""
+    canonical unit; ``time_scale_s``: seconds per unit of the time column (None: the manifest gives no time unit,
+    so seconds or timestamps)."""
 
     header: list[str]
     time_column: str
-    time_scale_s: float
+    time_scale_s: float | None
     inputs: list[str]
     convert: dict[str, tuple[float, float]]
     source: str = "-"
@@ -118,7 +135,8 @@ class Rows:
     def parse(self, cells: list[Any]) -> tuple[float, np.ndarray]:
         """(time in s, or NaN where unreadable; the inputs, NaN for a missing or unreadable cell)."""
         n = len(cells)
-        t = _number(cells[self.t_idx] if self.t_idx < n else "") * self.time_scale_s
+        cell = cells[self.t_idx] if self.t_idx < n else ""
+        t = _seconds(cell) if self.time_scale_s is None else _number(cell) * self.time_scale_s
         values = np.array([_number(cells[i]) if i < n else np.nan for i in self.idx]) * self.scale + self.offset
         return t, values
 

@@ -45,10 +45,15 @@ def training_frame(result) -> tuple[pd.DataFrame, pd.DataFrame]:
 
 
 def axes(result) -> dict[str, dict[str, Any]]:
-    """Per target the manifest's ``axis`` and ``position_mm`` (where given)."""
+    """Per target the manifest's ``axis`` and ``position_mm`` (where given); ``unit: degC`` for a temperature
+    target (a displacement target's unit, µm, is the default and not written)."""
     rec = result.recording
-    return {t: {k: v for k, v in rec.channels[t].meta.items() if k in ("axis", "position_mm", "location")}
-            for t in result.targets if t in rec.channels}
+    out = {t: {k: v for k, v in rec.channels[t].meta.items() if k in ("axis", "position_mm", "location")}
+           for t in result.targets if t in rec.channels}
+    for t in out:
+        if rec.channels[t].role == "temperature":
+            out[t]["unit"] = rec.channels[t].unit
+    return out
 
 
 def limits(result) -> dict[str, Any]:

@@ -38,10 +38,9 @@ from thermodrift.core import efficiency, registry, resume, schema, search_space,
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.components import LAG_PREFIX
-from thermodrift.core.recording import TEMPERATURE_ROLES
+from thermodrift.core.recording import INPUT_ROLES, TARGET_ROLES  # what a model reads (°C, W/m², W) and predicts
 
 SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
-INPUT_ROLES = TEMPERATURE_ROLES  # the channels a model may read: every temperature (°C)
 FINISHED = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED, optuna.trial.TrialState.FAIL)
 
 
@@ -61,7 +60,7 @@ class JobSpec:
     selector_params: dict = field(default_factory=dict)
     optimizer_params: dict = field(default_factory=dict)
     split_params: dict = field(default_factory=dict)
-    targets: list[str] | None = None  # displacement channels (None: all)
+    targets: list[str] | None = None  # displacement or temperature channels (None: every displacement)
     input_roles: tuple[str, ...] = INPUT_ROLES
     baselines: tuple[str, ...] = ("persistence", "mlr")
     seed: int = 0
@@ -163,6 +162,11 @@ class JobResult:
     def targets(self) -> list[str]:
         return list(self.folds[0].y_true.columns)
 
+    @property
+    def unit(self) -> str:
+        """The unit of the errors: µm for displacement targets, K for temperature targets."""
+        return target_unit(self.recording, self.targets)
+
     def same_as(self, atol_um: float = 1e-3) -> str | None:
         """The baseline whose held-out predictions equal the model's on every row of every fold to ``atol_um``
         (default 0.001 µm, the precision the metrics are printed with), if any."""
@@ -182,6 +186,7 @@ class Job:
         self.spec = spec
         self.callbacks = list(callbacks or [])
         self.say = say or (lambda line: None)
+        self.unit = "µm"  # of the errors, once :meth:`run` knows the targets: µm (displacement) or K (temperature)
 
     def run(self, recording=None) -> JobResult:
         """Run the job on ``recording`` (default: the spec's dataset from the registry)."""
@@ -192,9 +197,10 @@ class Job:
         if recording is None:
             recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
         targets = targets_of(recording, self.spec.targets)
+        self.unit = target_unit(recording, targets)
         split = splits.make_split(spec.split, seed=spec.seed, **spec.split_params)
         folds = split.folds(recording)
-        features = [c for role in spec.input_roles for c in recording.columns(role)]
+        features = input_columns(recording, spec.input_roles, targets)
         if not features:
             raise InputError(f"{recording.source}: no input channel with roles {list(spec.input_roles)}")
         space = (spec.model_search_space if spec.model_search_space is not None
@@ -229,19 +235,6 @@ class Job:
         spec = self.spec
         return open_study(name, spec.storage, spec.optimizer, spec.seed, spec.n_trials, spec.optimizer_params,
                           make_pruner(spec.pruner))
-
-
-def targets_of(recording, wanted: list[str] | None) -> list[str]:
-    """The displacement channels a job models: ``wanted`` (None: every one); InputError naming any that is not."""
-    available = recording.columns("displacement")
-    if not available:
-        raise InputError(f"{recording.source}: the recording has no displacement channel to model")
-    targets = list(wanted or available)
-    missing = [t for t in targets if t not in available]
-    if missing:
-        raise InputError(f"{recording.source}: targets {missing} are not displacement channels",
-                         hint=f"choose from {available}")
-    return targets
 
 
 def open_study(name: str, storage: str | None, optimizer: str, seed: int, n_trials: int,
@@ -425,14 +418,51 @@ class _FoldRun:
         return self._frames[key]
 
 
+def targets_of(recording, wanted: list[str] | None) -> list[str]:
+    """The channels to model: ``wanted`` (displacement or temperature channels), else every displacement.
+    :class:`InputError` (one line) for a name that is not such a channel: an input (ambient, speed, heating, ...)
+    is never a target."""
+    available = [c for c in recording.data.columns if recording.channels[c].role in TARGET_ROLES]
+    if not wanted:
+        default = recording.columns("displacement")
+        if not default:
+            temps = recording.columns("temperature")
+            raise InputError(f"{recording.source}: the recording has no displacement channel to model",
+                             hint=f"name a temperature target, e.g. targets=['{temps[0]}']" if temps else
+                             "give a column role: displacement or temperature in the manifest")
+        return default
+    wrong = [t for t in wanted if t not in available]
+    if wrong:
+        name = wrong[0]
+        role = recording.channels[name].role if name in recording.channels else None
+        what = (f"is a channel of role {role}, an input" if role else "is not a channel of the recording")
+        raise InputError(f"{recording.source}: target {name!r} {what}; a target is a displacement or temperature "
+                         "channel", hint=f"choose from {available}")
+    return list(dict.fromkeys(wanted))
+
+
+def target_unit(recording, targets: list[str]) -> str:
+    """The unit of errors of ``targets``: µm (displacement), K (temperature); µm for a recording without roles."""
+    channels = getattr(recording, "channels", None)
+    return recording.error_unit(targets) if channels and all(t in channels for t in targets) else "µm"
+
+
+def input_columns(recording, roles, targets: list[str]) -> list[str]:
+    """The recording's channels of ``roles`` in role order, without the ``targets`` (a target is never an input)."""
+    return [c for role in roles for c in recording.columns(role) if c not in targets]
+
+
 def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
     """The input frame a model of class ``model_cls`` gets, for every row of ``recording``: the ``selected``
-    temperature columns (°C), the channels of its ``extra_input_roles`` (e.g. speed in rpm), and for models
-    that use the target history ``lag1:<target>``, the previous sample's measured displacement (µm).
-    ``attrs["roles"]`` maps every column to its role."""
+    input columns (temperatures °C, heat inputs), the channels of its ``extra_input_roles`` (e.g. speed in rpm),
+    and for models that use the target history ``lag1:<target>``, the previous sample's measured target (µm or
+    °C). ``attrs["roles"]`` maps every column to its role. No target is ever an input column."""
+    leaked = [c for c in selected if c in targets]
+    if leaked:
+        raise ValueError(f"targets {leaked} are among the selected inputs; a target is never an input")
     X = recording.data[list(selected)]
     extra = [c for role in getattr(model_cls, "extra_input_roles", ()) for c in recording.columns(role)
-             if c not in selected]
+             if c not in selected and c not in targets]
     parts = [X, recording.data[extra]] if extra else [X]
     if getattr(model_cls, "uses_target_history", False):
         parts.append(recording.data[targets].shift(1).bfill().add_prefix(LAG_PREFIX))

@@ -132,7 +132,7 @@ def log_result(result, params: dict[str, Any]) -> None:
     mlflow.log_params({k: _short(v) for k, v in flatten(params).items()})
     mlflow.log_param("selected_sensors", ",".join(result.selected))
     studies = [f.study.study_name for f in result.folds if f.study is not None]
-    mlflow.set_tags({"targets": ",".join(metric_key(t) for t in result.targets),
+    mlflow.set_tags({"targets": ",".join(metric_key(t) for t in result.targets), "unit": result.unit,
                      "optuna.study": _short(",".join(studies) or "none (n_trials=0: untuned)"),
                      "optuna.storage": str(result.spec.storage)})
     if result.same_as():
@@ -252,8 +252,12 @@ def figures(result) -> dict[str, Any]:
     title = f"{run_name(result.spec)} — held out: {fold.name}"
     styles = {who: _STYLES.get(who, _OTHER[i % len(_OTHER)]) for i, who in enumerate(fold.predictions)}
 
+    def error_unit(col: str) -> str:  # µm for a displacement, K for a temperature
+        channel = getattr(result.recording, "channels", {}).get(col)
+        return "K" if channel is not None and channel.role == "temperature" else "µm"
+
     def legend_label(who: str, col: str) -> str:
-        return f"{_label(result, who)} (RMSE {fold.metrics[who][col]['rmse']:.2f} µm)"
+        return f"{_label(result, who)} (RMSE {fold.metrics[who][col]['rmse']:.2f} {error_unit(col)})"
 
     for fig_name, residual in (("prediction_vs_measurement.png", False), ("residuals.png", True)):
         fig = Figure(figsize=(9, 2.6 * k + 0.4))
@@ -267,7 +271,8 @@ def figures(result) -> dict[str, Any]:
             for who, pred in fold.predictions.items():
                 ax.plot(hours, y - pred[:, i] if residual else pred[:, i], label=legend_label(who, col),
                         **styles[who])
-            ax.set_ylabel(f"{'residual ' if residual else ''}{col} [µm]")
+            unit = error_unit(col)
+            ax.set_ylabel(f"{'residual ' if residual else ''}{col} [{unit if residual or unit != 'K' else '°C'}]")
             ax.legend(fontsize=7, loc="best")
         axes[-1, 0].set_xlabel("time [h]")
         fig.suptitle(("residual (measured − predicted): " if residual else "") + title, fontsize=9)
@@ -285,10 +290,10 @@ def figures(result) -> dict[str, Any]:
             tag = f"{name}: " if len(studies) > 1 else ""
             ax.plot(steps, values, "o", ms=3, alpha=0.5, color=f"C{i}", label=f"{tag}trial")
             ax.step(steps, np.minimum.accumulate(values), where="post", lw=1.5, color=f"C{i}",
-                    label=f"{tag}best so far ({values.min():.3g} µm)")
+                    label=f"{tag}best so far ({values.min():.3g} {result.unit})")
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_xlabel("trial number")
-        ax.set_ylabel("inner validation RMSE [µm]")
+        ax.set_ylabel(f"inner validation RMSE [{result.unit}]")
         ax.set_title(f"convergence — {run_name(result.spec)}", fontsize=9)
         ax.legend(fontsize=7)
         out["convergence.png"] = fig
@@ -349,7 +354,8 @@ class SweepRun(Callback):
             client.set_tag(parent, "best_protocol", best.data.tags.get("protocol", ""))
         client.set_terminated(parent)
         failed = sum(c.info.status != "FINISHED" for c in children)
-        print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE (µm) "
+        unit = ", ".join(sorted({c.data.tags.get("unit", "µm") for c in children})) or "µm"
+        print(f"\ngrid: {len(children)} jobs{f' ({failed} failed)' if failed else ''}; held-out RMSE ({unit}) "
               "per target, the baselines beside it:\n"
               + report.format_table(report.runs_table(children))
               + "".join(f"\n{line}" for line in report.best_job_lines(ranked))

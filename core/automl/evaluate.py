@@ -1,5 +1,6 @@
 """Scoring one candidate pipeline on the inner folds: fit on each fold's training rows, predict its validation
-rows with the training rows before them as history, RMSE (µm) per fold and target, and its costs."""
+rows with the training rows before them as history, RMSE per fold and target in the targets' unit (µm for
+displacements, K for temperatures: :attr:`Evaluator.unit`), and its costs."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 from thermodrift.core import efficiency, registry
 from thermodrift.core.automl.folds import aggregate
 from thermodrift.core.metrics import evaluate
-from thermodrift.core.study import INPUT_ROLES, model_inputs, predict_rows, seeded_model
+from thermodrift.core.study import INPUT_ROLES, input_columns, model_inputs, predict_rows, seeded_model, target_unit
 
 
 @dataclass
@@ -34,10 +35,11 @@ class Evaluator:
         self.recording, self.targets, self.folds, self.seed = recording, list(targets), list(folds), seed
         self.outer_train = np.asarray(outer_train)
         cls = registry.get("model", "pipeline").factory
-        inputs = [c for role in INPUT_ROLES for c in recording.columns(role)]
+        inputs = input_columns(recording, INPUT_ROLES, self.targets)
         self.X = model_inputs(recording, inputs, cls, self.targets)
         self.y = recording.data[self.targets]
         self.truth = [self.y.iloc[f.test] for f in self.folds]
+        self.unit = target_unit(recording, self.targets)  # of every RMSE here: µm or K
 
     def pipeline(self, params: dict):
         return seeded_model("pipeline", params, self.seed)

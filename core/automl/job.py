@@ -23,8 +23,8 @@ from thermodrift.core.automl import folds as inner, leaderboard
 from thermodrift.core.automl.evaluate import Evaluator
 from thermodrift.core.automl.search import Search, SearchResult, Settings
 from thermodrift.core.errors import InputError
-from thermodrift.core.study import (FoldResult, JobResult, JobSpec, model_inputs, open_study, refit, score,
-                                    targets_of)
+from thermodrift.core.study import (FoldResult, JobResult, JobSpec, input_columns, model_inputs, open_study, refit,
+                                   score, targets_of)
 
 # The search's sampler, through the registry like every study's: TPE over each family's branch on its own.
 SAMPLER, SAMPLER_PARAMS = "tpe", {"n_startup_trials": 8, "multivariate": True, "group": True}
@@ -90,7 +90,7 @@ def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: lis
                        params: dict, inner_score: float) -> JobResult:
     """The chosen model refitted on ``fold.train`` and scored on ``fold.test`` beside ``spec.baselines`` (on every
     input temperature), as the :class:`JobResult` of a job with ``model=model_name``."""
-    columns = [c for role in spec.input_roles for c in recording.columns(role)]
+    columns = input_columns(recording, spec.input_roles, targets)
     frames = {}
 
     def inputs(name: str):

@@ -232,7 +232,7 @@ class Search:
         self.bar.n = min(self.fits_used(), self.settings.budget_fits)
         scores = [t.value for t in self.study.trials if t.state == optuna.trial.TrialState.COMPLETE]
         if scores:
-            self.bar.set_postfix_str(f"best inner score {min(scores):.3f} µm", refresh=False)
+            self.bar.set_postfix_str(f"best inner score {min(scores):.3f} {self.ev.unit}", refresh=False)
         self.bar.refresh()
 
     # ------------------------------------------------------------------------------------------------ results
@@ -314,7 +314,7 @@ class Search:
                                "one-SE set, inverse-MSE weights")
         self.say(f"automl: the inner folds cannot tell {len(members)} candidates from the best (one standard error "
                  f"of their per-fold differences); their average weighted by inverse mean squared fold RMSE is "
-                 f"chosen (inner score {chosen['score']:.3f} µm, best single {best.score:.3f} µm)")
+                 f"chosen (inner score {chosen['score']:.3f} {self.ev.unit}, best single {best.score:.3f} {self.ev.unit})")
         return chosen
 
     def _mixture(self, entries: list[Entry], preds: list[list[np.ndarray]], weights: list[float], kind: str) -> dict:
@@ -342,8 +342,8 @@ class Search:
                                              best.score, self.settings.ensemble_steps)
         if weights is None:
             if oof is not None:
-                self.say(f"automl: the greedy ensemble (inner score {score:.3f} µm) is not kept: out of fold it "
-                         f"scores {oof[0]:.3f} µm against {oof[1]:.3f} µm for choosing one pipeline")
+                self.say(f"automl: the greedy ensemble (inner score {score:.3f} {self.ev.unit}) is not kept: out of fold "
+                         f"it scores {oof[0]:.3f} against {oof[1]:.3f} {self.ev.unit} for choosing one pipeline")
             return None
         used = np.flatnonzero(weights > 0)
         return self._mixture([pool[i] for i in used], [preds[i] for i in used], [weights[i] for i in used], "greedy")

@@ -162,13 +162,13 @@ def report(result, run, uri: str) -> str:
     for target in job.targets:
         table[f"rmse {target}"] = [job.summary_metrics(who, target)["rmse"] for who in job.folds[0].metrics]
     lines = [f"\nautoml on {job.spec.dataset} · {job.spec.split}  [{job.protocol} protocol]",
-             f"targets (µm): {', '.join(job.targets)}",
+             f"targets ({job.unit}): {', '.join(job.targets)}",
              f"inner folds: {'; '.join(f.name for f in result.search.folds)}",
              f"{len(board)} candidates, {result.search.fits} fits, {int((board['status'] == 'failed').sum())} "
-             f"failed, stopped by {result.search.stopped_by}, {result.wall_s:.0f} s; leaderboard (inner RMSE µm):",
+             f"failed, stopped by {result.search.stopped_by}, {result.wall_s:.0f} s; leaderboard (inner RMSE {job.unit}):",
              show.to_string(index=False, float_format=lambda v: f"{v:.3f}"),
-             f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} µm): {_describe(result)}",
-             f"held-out ({job.folds[0].name}), µm, mean over targets:",
+             f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} {job.unit}): {_describe(result)}",
+             f"held-out ({job.folds[0].name}), {job.unit}, mean over targets:",
              table.to_string(float_format="%.3f"),
              f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",
              f"MLflow run {run.info.run_id} at {uri}"]

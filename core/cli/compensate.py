@@ -70,9 +70,12 @@ def run(args: argparse.Namespace) -> int:
     parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
-    writer = cnc.Writer(pkg, args.cnc, reference_mm=args.reference_mm, detection_unit_um=args.detection_unit_um,
-                        max_axis_velo_mm_min=args.max_axis_velo_mm_min, velo_factor=args.velo_factor,
-                        ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
+    try:
+        writer = cnc.Writer(pkg, args.cnc, reference_mm=args.reference_mm, detection_unit_um=args.detection_unit_um,
+                            max_axis_velo_mm_min=args.max_axis_velo_mm_min, velo_factor=args.velo_factor,
+                            ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
+    except ValueError as exc:  # a temperature target in a CNC format
+        raise InputError(str(exc), file=args.package, hint="choose --cnc csv") from None
     out = sys.stdout if args.out == "-" else open(args.out, "w", newline="", encoding="utf-8")
     audit_fh = open(args.audit, "w", encoding="utf-8") if args.audit else None
     try:
@@ -114,5 +117,5 @@ def _manifest(path: str, inputs: list[str]):
             raise InputError(f"the package reads this column as a number, the manifest gives role {role}", file=path,
                              column=c, hint="give it the role and unit it had in training")
         convert[c] = recording.UNITS[role][1][unit]
-    unit = manifest.time_unit or "s"
-    return manifest.time, recording.TIME_UNITS[unit], convert
+    scale = None if manifest.time_unit is None else recording.TIME_UNITS[manifest.time_unit]
+    return manifest.time, scale, convert  # scale None: seconds or timestamps

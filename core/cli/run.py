@@ -17,6 +17,7 @@ import sys
 import time
 import uuid
 from pathlib import Path
+from typing import Callable
 
 import hydra
 import mlflow
@@ -168,13 +169,13 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
             mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
         logger = tracking.TrialLogger(run.info.run_id)
         trial_log = tracking_faults.BufferedCallback(logger)
-        callbacks = [trial_log]
+        job = Job(spec, callbacks=[trial_log], say=say)
         if spec.progress and not sys.stderr.isatty():  # a bar in a file or pipe is one long line: lines instead
             spec.progress = False
-            callbacks.append(ProgressLines(spec.n_trials))
+            job.callbacks.append(ProgressLines(spec.n_trials, lambda: job.unit))
         LOG.info("%s: study %s, MLflow run %s", run_name, study_name, run.info.run_id)
         try:
-            result = Job(spec, callbacks=callbacks, say=say).run()
+            result = job.run()
         except (InputError, PluginError) as exc:
             mlflow.set_tag("error", str(exc)[:5000])
             mlflow.end_run(status="FAILED")
@@ -208,8 +209,9 @@ class ProgressLines:
     """Optuna callback for output that is not a terminal: a line on the finished trials at most every
     :data:`PROGRESS_EVERY_S` s and when the budget is met, on stderr where the bar would be (and in the log)."""
 
-    def __init__(self, n_trials: int) -> None:
+    def __init__(self, n_trials: int, unit: Callable[[], str] = lambda: "µm") -> None:
         self.n_trials = n_trials
+        self.unit = unit  # of the RMSE: µm or K, known once the job has its targets
         self.last = -float("inf")
 
     def __call__(self, study, trial) -> None:
@@ -220,7 +222,7 @@ class ProgressLines:
         self.last = now
         best = min((t.value for t in finished if t.value is not None), default=None)
         line = (f"{study.study_name}: {len(finished)} of {self.n_trials} trials finished"
-                + (f", best inner validation RMSE {best:.3f} µm" if best is not None else ""))
+                + (f", best inner validation RMSE {best:.3f} {self.unit()}" if best is not None else ""))
         print(line, file=sys.stderr, flush=True)
         LOG.info(line)
 
@@ -235,15 +237,16 @@ def job_report(result, run, uri: str) -> str:
     tuned = ("untuned (n_trials=0), on its defaults" if result.study is None
              else f"tuned{' (last fold)' if len(result.folds) > 1 else ''}: {params or 'nothing to tune'}")
     lines = [f"\n{tracking.run_name(result.spec)}  [{result.protocol} protocol]",
-             f"targets (µm): {', '.join(result.targets)}",
+             f"targets ({result.unit}): {', '.join(result.targets)}",
              f"selected sensors{' (last fold)' if len(result.folds) > 1 else ''}: {', '.join(result.selected)}",
              f"model {result.spec.model} {tuned}",
-             f"held-out ({'; '.join(f.name for f in result.folds)}), µm, mean over "
+             f"held-out ({'; '.join(f.name for f in result.folds)}), {result.unit}, mean over "
              f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
              table.to_string(float_format="%.3f")]
     same = result.same_as()
     if same:
-        lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 µm)")
+        lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 "
+                     f"{result.unit})")
     names = dict.fromkeys(result.spec.model if who == "model" else who for who in result.folds[0].metrics)
     for name in (n for n in names if getattr(registry.get("model", n).factory, "uses_target_history", False)):
         lines.append(f"{name} reads the measured target of the previous sample: a reference, not a compensation "

@@ -45,9 +45,15 @@ UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
     "speed": ("rpm", {"rpm": (1.0, 0.0), "rad_s": (60.0 / (2.0 * math.pi), 0.0),
                       "rad/s": (60.0 / (2.0 * math.pi), 0.0)}),
     "cutting_power": ("W", {"W": (1.0, 0.0), "kW": (1000.0, 0.0)}),
+    "solar_irradiance": ("W_m2", {"W_m2": (1.0, 0.0), "W/m2": (1.0, 0.0), "W/m²": (1.0, 0.0),
+                                  "kW_m2": (1000.0, 0.0), "kW/m2": (1000.0, 0.0), "kW/m²": (1000.0, 0.0)}),
+    # A heating signal is a power, or a unitless command ("1": a boiler's modulation, a valve opening) that a model
+    # takes as proportional to the heat input; it keeps unit "1" (see UNITLESS).
+    "heating": ("W", {"W": (1.0, 0.0), "kW": (1000.0, 0.0), "1": (1.0, 0.0)}),
     "axis_velocity": ("mm_min", {"mm_min": (1.0, 0.0), "mm/min": (1.0, 0.0),
                                  "m_min": (1000.0, 0.0), "m/min": (1000.0, 0.0)}),
 }
+UNITLESS = "1"  # a signal without a physical unit: loaded as it is, canonical unit "1"
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
 _MANIFEST_KEYS = ("time", "time_unit", "sheet", "channels", "description")
 _TABLE_SUFFIXES = (".csv", ".parquet", ".xlsx")
@@ -55,6 +61,7 @@ _TABLE_SUFFIXES = (".csv", ".parquet", ".xlsx")
 _NONCONSTANT_ROLES = ("temperature", "displacement")
 _SINGLE_ROLES = ("speed", "condition")
 
+TARGET = "target"  # in ``require``: a displacement, or a temperature and another input to predict it from
 MIN_ROWS = 10
 MAX_NAN_RUN = 3  # longest run of missing samples that is interpolated; longer gaps are errors
 
@@ -71,10 +78,12 @@ class Manifest:
 
 
 def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLike, *,
-                   require: Iterable[str] = ("temperature", "displacement")) -> Recording:
+                   require: Iterable[str] = ("temperature", TARGET)) -> Recording:
     """Read a table and its manifest into a :class:`Recording`; raise :class:`InputError` on bad input.
 
-    ``require`` lists roles that must have at least one channel (default: temperature and displacement).
+    ``require`` lists roles that must have at least one channel, and :data:`TARGET`: something to model (a
+    displacement channel, or else a temperature with at least one other input channel to predict it from).
+    Default: a temperature and a target.
     """
     manifest = read_manifest(manifest_path, tuple(require))
     table = str(table_path)
@@ -116,7 +125,7 @@ def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLi
                              hint="check the sensor or mark the column role: ignore in the manifest")
         if role == "displacement":
             _check_displacement_scale(values, unit, table, name, notes)
-        canonical, (scale, offset) = UNITS[role][0], UNITS[role][1][unit]
+        canonical, (scale, offset) = UNITS[role][0] if unit != UNITLESS else UNITLESS, UNITS[role][1][unit]
         if (scale, offset) != (1.0, 0.0):
             values = values * scale + offset
             notes.append(f"{name}: converted from {unit} to {canonical}")
@@ -241,10 +250,22 @@ def read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> Manifest
             raise InputError(f"{len(cols)} channels have role {role} ({', '.join(cols)}); one is allowed",
                              file=file, column=cols[1], hint="mark the others role: ignore")
     for role in require:
-        if not any(r == role for r, _, _ in channels.values()):
+        if role == TARGET:
+            _check_target(channels, file)
+        elif not any(r == role for r, _, _ in channels.values()):
             raise InputError(f"no channel has role {role}", file=file,
                              hint=f"give at least one column 'role: {role}' with its unit")
     return Manifest(file, time_col, time_unit, None if sheet is None else str(sheet), channels)
+
+
+def _check_target(channels: dict[str, tuple[str, str | None, dict[str, Any]]], file: str) -> None:
+    """Something to model: a displacement, or a temperature and at least one other input channel."""
+    roles = [r for r, _, _ in channels.values() if r not in ("condition", "ignore")]
+    if "displacement" in roles or ("temperature" in roles and len(roles) >= 2):
+        return
+    raise InputError("no channel has role displacement, and no temperature with another input to predict it from",
+                     file=file, hint="give a column 'role: displacement', or a temperature target and its inputs "
+                                     "(ambient, solar_irradiance, heating, speed, other temperatures)")
 
 
 def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, dict[str, Any]]:
@@ -259,6 +280,7 @@ def _channel_spec(spec: Any, file: str, column: str) -> tuple[str, str | None, d
         raise InputError(f"unknown role {role!r}", file=file, column=column,
                          hint=_suggest(str(role), ROLES, f"use one of {', '.join(ROLES)}"))
     unit = spec.get("unit")
+    unit = None if unit is None else str(unit)  # `unit: 1` unquoted in YAML is the number 1
     meta = {str(k): v for k, v in spec.items() if k not in ("role", "unit")}
     if role in ("condition", "ignore"):
         if role == "condition" and unit is not None:

@@ -1,7 +1,11 @@
 """The Recording type: channels by role in canonical units, indexed by time in s.
 
 Canonical units in :attr:`Recording.data`: temperatures (the roles in :data:`TEMPERATURE_ROLES`) in °C,
-displacement in µm, speed in rpm, cutting_power in W, axis_velocity in mm/min; condition is a label.
+displacement in µm, speed in rpm, cutting_power in W, axis_velocity in mm/min, solar_irradiance in W/m², heating
+in W (or unitless, "1", when the manifest gives no power unit); condition is a label.
+
+A model's target is a displacement (µm) or a temperature (°C; its errors in K): :data:`TARGET_ROLES`, with the unit
+its errors are stated in (:data:`ERROR_UNITS`, :meth:`Recording.error_unit`). A target is never an input.
 """
 
 from __future__ import annotations
@@ -19,8 +23,15 @@ from thermodrift.core.errors import InputError
 from thermodrift.core.recording.conditions import detect_conditions
 
 ROLES = ("speed", "temperature", "displacement", "ambient", "coolant_inlet", "coolant_outlet",
-         "cutting_power", "axis_velocity", "condition", "ignore")
+         "cutting_power", "axis_velocity", "solar_irradiance", "heating", "condition", "ignore")
 TEMPERATURE_ROLES = ("temperature", "ambient", "coolant_inlet", "coolant_outlet")
+# Heat inputs of a building (W/m², W or a unitless heating signal): inputs a model reads like temperatures.
+HEAT_INPUT_ROLES = ("solar_irradiance", "heating")
+# The channels a model reads and a selector picks from: every temperature (°C) and the heat inputs.
+INPUT_ROLES = (*TEMPERATURE_ROLES, *HEAT_INPUT_ROLES)
+# Roles a model may predict, and the unit of an error (a difference) in each: a temperature error is in K.
+TARGET_ROLES = ("displacement", "temperature")
+ERROR_UNITS = {"displacement": "µm", "temperature": "K"}
 TIME_INDEX = "time_s"
 
 
@@ -116,6 +127,12 @@ class Recording:
         """Spindle speed in rpm, or None."""
         cols = self.columns("speed")
         return self.data[cols[0]] if cols else None
+
+    def error_unit(self, targets: Iterable[str]) -> str:
+        """The unit in which errors of ``targets`` are stated: µm for displacements, K for temperatures
+        (``"µm, K"`` for a mix, in target order)."""
+        units = [ERROR_UNITS.get(self.channels[t].role, str(self.channels[t].unit)) for t in targets]
+        return ", ".join(dict.fromkeys(units)) or ERROR_UNITS["displacement"]
 
     def conditions(self) -> pd.Series:
         """Working-condition label per sample: the condition channel, else detected from the speed schedule.

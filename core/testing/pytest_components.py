@@ -76,6 +76,6 @@ class OptimizerTests(ComponentTests):
 
 
 class DatasetTests(ComponentTests):
-    """The dataset contract: a deterministic Recording with temperatures and displacements."""
+    """The dataset contract: a deterministic Recording with temperatures and a target (displacement or temperature)."""
 
     kind = "dataset"

@@ -28,9 +28,8 @@ from thermodrift.compensator.features import DRIVE_ROLES, FeatureStage
 from thermodrift.core import registry
 from thermodrift.core.components import ThermalModel
 from thermodrift.core.hookspecs import hookimpl
-from thermodrift.core.recording import TEMPERATURE_ROLES
+from thermodrift.core.recording import INPUT_ROLES as SELECTABLE_ROLES  # °C, W/m², W: what a selector picks from
 
-SELECTABLE_ROLES = TEMPERATURE_ROLES  # °C: what a selector picks from
 INPUT_ROLES = (*SELECTABLE_ROLES, *DRIVE_ROLES)
 
 
@@ -91,7 +90,7 @@ class Pipeline(ThermalModel):
             raise ValueError(f"model {self.model!r} reads the measured target: a reference, not a pipeline's model")
         candidates = [c for c in X.columns if roles.get(c, "temperature") in SELECTABLE_ROLES]
         if not candidates:
-            raise ValueError("a pipeline needs at least one temperature channel among its inputs")
+            raise ValueError("a pipeline needs at least one temperature or heat-input channel among its inputs")
         targets = pd.DataFrame(y, index=X.index, columns=self.target_names_)
         if self.selector == "all":
             self.selected_ = list(candidates)
