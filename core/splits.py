@@ -59,19 +59,29 @@ def inner_fold(recording, fraction: float = 0.25, min_share: float = 0.05) -> Fo
 
 
 class Chronological(Split):
-    """Train on the first part of the recording, test on the last ``test_fraction`` (after an optional gap in s)."""
+    """Train on the first part of the recording, test on the last ``test_fraction`` of its time, or on its last
+    ``test_last_h`` hours when given (e.g. 336: the last two weeks), after an optional gap in s."""
 
-    def __init__(self, test_fraction: float = 0.3, gap_s: float = 0.0):
+    def __init__(self, test_fraction: float = 0.3, gap_s: float = 0.0, test_last_h: float | None = None):
         if not 0 < test_fraction < 1:
             raise InputError(f"split.test_fraction must be in (0, 1), got {test_fraction}")
-        self.test_fraction, self.gap_s = test_fraction, gap_s
+        if test_last_h is not None and not test_last_h > 0:
+            raise InputError(f"split.test_last_h must be positive or null, got {test_last_h!r}")
+        self.test_fraction, self.gap_s, self.test_last_h = test_fraction, gap_s, test_last_h
 
     def folds(self, recording) -> list[Fold]:
         t = recording.time_s
-        cut = t[0] + (1 - self.test_fraction) * (t[-1] - t[0])
+        if self.test_last_h is None:
+            cut, name = t[0] + (1 - self.test_fraction) * (t[-1] - t[0]), f"last {self.test_fraction:.0%} of time"
+        else:  # the last test_last_h hours, the final sample's interval included
+            step = recording.sampling_interval_s if len(t) > 1 else 0.0
+            cut, name = t[-1] + step - 3600.0 * self.test_last_h, f"last {self.test_last_h:g} h"
+            if cut <= t[0]:
+                raise InputError(f"{recording.source}: split.test_last_h={self.test_last_h:g} holds out the whole "
+                                 f"recording ({(t[-1] - t[0]) / 3600:.1f} h)", hint="hold out fewer hours")
         train = np.flatnonzero(t < cut - self.gap_s)
         test = np.flatnonzero(t >= cut)
-        return [_fold(train, test, f"last {self.test_fraction:.0%} of time")]
+        return [_fold(train, test, name)]
 
 
 class ConditionHoldout(Split):

@@ -452,11 +452,13 @@ def input_columns(recording, roles, targets: list[str]) -> list[str]:
     return [c for role in roles for c in recording.columns(role) if c not in targets]
 
 
-def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) -> pd.DataFrame:
+def model_inputs(recording, selected: list[str], model_cls, targets: list[str], lag: int = 1) -> pd.DataFrame:
     """The input frame a model of class ``model_cls`` gets, for every row of ``recording``: the ``selected``
     input columns (temperatures °C, heat inputs), the channels of its ``extra_input_roles`` (e.g. speed in rpm),
-    and for models that use the target history ``lag1:<target>``, the previous sample's measured target (µm or
-    °C). ``attrs["roles"]`` maps every column to its role. No target is ever an input column."""
+    and for models that use the target history ``lag1:<target>``, the last measured target (µm or °C): that of
+    the previous sample, or ``lag`` samples before at a forecast horizon of ``lag`` samples
+    (:mod:`thermodrift.core.horizons`). ``attrs["roles"]`` maps every column to its role. No target is ever an
+    input column."""
     leaked = [c for c in selected if c in targets]
     if leaked:
         raise ValueError(f"targets {leaked} are among the selected inputs; a target is never an input")
@@ -465,7 +467,7 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str]) 
              if c not in selected and c not in targets]
     parts = [X, recording.data[extra]] if extra else [X]
     if getattr(model_cls, "uses_target_history", False):
-        parts.append(recording.data[targets].shift(1).bfill().add_prefix(LAG_PREFIX))
+        parts.append(recording.data[targets].shift(lag).bfill().add_prefix(LAG_PREFIX))
     out = pd.concat(parts, axis=1) if len(parts) > 1 else X.copy()
     # Each column's role travels with the frame (and its row slices), so models need not guess from names.
     out.attrs["roles"] = {c: recording.channels[c].role if c in recording.channels else "target_history"

@@ -238,6 +238,31 @@ _STYLES = {"measured": dict(color="0.55", lw=2.6, ls="-"), "model": dict(color="
 _OTHER = [dict(color=c, lw=1.1, ls=ls) for c, ls in (("C4", "-."), ("C1", (0, (5, 1, 1, 1))), ("C5", "--"))]
 
 
+def log_horizons(result, horizons_h: list[float]):
+    """Held-out RMSE per forecast horizon (:func:`thermodrift.core.horizons.scores`) into the active run as
+    ``horizon/<label>/rmse`` (the model) and ``baseline/<name>/horizon/<label>/rmse``; returns the table (None
+    without horizons)."""
+    if not horizons_h:
+        return None
+    from thermodrift.core import horizons
+
+    table = horizons.scores(result, horizons_h)
+    metrics = {}
+    for who, row in table.iterrows():
+        prefix = ("horizon",) if str(who).startswith("model: ") else ("baseline", str(who), "horizon")
+        metrics.update({metric_key(*prefix, h.replace(" ", "_"), "rmse"): float(v) for h, v in row.items()})
+    mlflow.log_metrics(metrics)
+    return table
+
+
+def horizon_lines(table, unit: str) -> list[str]:
+    """The report's lines for :func:`log_horizons`' table (none without horizons)."""
+    if table is None:
+        return []
+    return [f"held-out RMSE by forecast horizon, {unit} (a model that reads only inputs predicts the same at every "
+            "horizon; persistence reads the target as old as the horizon):", table.to_string(float_format="%.3f")]
+
+
 def figures(result) -> dict[str, Any]:
     """Prediction vs measurement and residuals on the last fold (RMSE per curve in the legend), and the
     convergence of each fold's study. Plain matplotlib Figures, outside pyplot's registry, so a grid running many

@@ -33,9 +33,9 @@ def house_table(path: Path, rows: int = 200, seed: int = 0) -> Path:
     rng = np.random.default_rng(seed)
     t = pd.date_range("2021-11-22 09:00", periods=rows, freq="15min")
     hours = np.arange(rows) * 0.25
-    ta = 5 + 4 * np.sin(2 * np.pi * hours / 24) + rng.normal(0, 0.1, rows)
-    ps = np.clip(0.3 * np.sin(2 * np.pi * (hours - 6) / 24), 0, None)  # kW/m²
-    thm = np.where((hours % 24 > 6) & (hours % 24 < 22), 60.0, 0.0)
+    ta = 5 + 4 * np.sin(2 * np.pi * hours / 24) + np.cumsum(rng.normal(0, 0.1, rows))  # weather drifts
+    ps = np.clip(0.3 * np.sin(2 * np.pi * (hours - 6) / 24), 0, None) * rng.uniform(0.2, 1.0, rows)  # kW/m²
+    thm = np.repeat(60.0 * (rng.random(rows // 8 + 1) < 0.5), 8)[:rows]  # the boiler on or off for 2 h at a time
     ti = np.empty(rows)
     ti[0] = 19.0
     for k in range(1, rows):  # C dTi/dt = (Ta - Ti)/R + a·Ps + b·Thm
@@ -153,3 +153,32 @@ def test_run_export_compensate_on_a_house_in_kelvin(tmp_path, cli):
     refused = cli(tmp_path, "compensate", "pkg", "--input", "day.csv", "--manifest", str(MANIFEST), "--out", "w.csv",
                   "--cnc", "fanuc")
     assert refused.returncode == 2 and "is a temperature: use csv" in refused.stderr
+
+
+def test_automl_on_a_house_holds_out_the_last_two_weeks_and_scores_by_horizon(tmp_path):
+    from thermodrift.core import horizons, splits
+    from thermodrift.core.automl import job as automl_job
+    from thermodrift.core.automl.search import Settings
+
+    rows = 4 * 24 * 21  # three weeks at 15 min
+    rec = load_recording(house_table(tmp_path / "house.csv", rows=rows), MANIFEST)
+    (fold,) = splits.make_split("chronological", test_last_h=336).folds(rec)
+    assert len(fold.test) == 4 * 24 * 14 and fold.name == "last 336 h" and fold.train[-1] + 1 == fold.test[0]
+    with pytest.raises(InputError, match="holds out the whole recording"):
+        splits.make_split("chronological", test_last_h=24 * 30).folds(rec)
+    spec = JobSpec(dataset="house", model="pipeline", split="chronological", split_params={"test_last_h": 336},
+                   targets=["yTi"], input_roles=("temperature", "ambient", "solar_irradiance", "heating"),
+                   storage=None, progress=False)
+    result = automl_job.run(spec, Settings(budget_fits=8, families=["mlr"], max_folds=2), recording=rec)
+    job = result.job
+    assert job.unit == "K" and "yTi" not in job.model.feature_names_in_
+    table = horizons.scores(job, [0, 24])
+    assert list(table.columns) == ["one step (15 min)", "24 h"]
+    model = table.loc[f"model: {job.spec.model}"]
+    assert model.iloc[0] == model.iloc[1] == pytest.approx(job.summary_metrics("model")["rmse"])  # inputs only
+    persistence = table.loc["persistence"]
+    assert persistence.iloc[0] == pytest.approx(job.summary_metrics("persistence")["rmse"])
+    assert persistence.iloc[1] > 2 * persistence.iloc[0]  # yesterday's temperature is a worse guess than 15 min ago
+    assert horizons.steps(0, 900.0) == 1 and horizons.steps(24, 900.0) == 96
+    with pytest.raises(InputError, match="horizons_h"):
+        horizons.steps(-1, 900.0)

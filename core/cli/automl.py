@@ -86,7 +86,8 @@ def job(cfg, spec, multirun: bool, bad_input) -> float | None:
             mlflow.end_run(status="FAILED")
             return bad_input(exc, multirun)
         log(result, config)
-    print(report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI), flush=True)
+        by_horizon = tracking.log_horizons(result.job, config.get("horizons_h") or [])
+    print(report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI, by_horizon), flush=True)
     return result.job.valid_rmse
 
 
@@ -149,7 +150,7 @@ def _describe(result) -> str:
     return " + ".join(f"{w:.2f} × [{space.describe(m)}]" for w, m in zip(ens["weights"], ens["members"]))
 
 
-def report(result, run, uri: str) -> str:
+def report(result, run, uri: str, by_horizon=None) -> str:
     """What a person reads after the search: the leaderboard's top, the choice, held-out metrics beside the
     baselines, the parent run."""
     from thermodrift.core import tracking
@@ -170,6 +171,7 @@ def report(result, run, uri: str) -> str:
              f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} {job.unit}): {_describe(result)}",
              f"held-out ({job.folds[0].name}), {job.unit}, mean over targets:",
              table.to_string(float_format="%.3f"),
+             *tracking.horizon_lines(by_horizon, job.unit),
              f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",
              f"MLflow run {run.info.run_id} at {uri}"]
     return "\n".join(lines)

@@ -187,7 +187,8 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
                 logger.replay(fold.study, fold.trials_before)
         mlflow.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
-    say(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI))
+        by_horizon = tracking.log_horizons(result, list(cfg.get("horizons_h") or []))
+    say(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI, by_horizon))
     return result.valid_rmse
 
 
@@ -227,7 +228,7 @@ class ProgressLines:
         LOG.info(line)
 
 
-def job_report(result, run, uri: str) -> str:
+def job_report(result, run, uri: str, by_horizon=None) -> str:
     """What a person reads after a job: targets, selection, held-out metrics beside the baselines, what
     persistence is, where the figures are."""
     table = tracking.comparison(result)[["rmse", "mae", "max_abs_error", "r2"]]
@@ -242,7 +243,7 @@ def job_report(result, run, uri: str) -> str:
              f"model {result.spec.model} {tuned}",
              f"held-out ({'; '.join(f.name for f in result.folds)}), {result.unit}, mean over "
              f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
-             table.to_string(float_format="%.3f")]
+             table.to_string(float_format="%.3f"), *tracking.horizon_lines(by_horizon, result.unit)]
     same = result.same_as()
     if same:
         lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 "
