@@ -74,6 +74,9 @@ class ThermalModel(RegressorMixin, Component):
 
     uses_target_history: ClassVar[bool] = False
     extra_input_roles: ClassVar[tuple[str, ...]] = ()
+    # Roles the model cannot run without (e.g. ("speed",)): a job refuses it, and AutoML leaves it out before
+    # fitting, on a recording without a channel of each.
+    requires_roles: ClassVar[tuple[str, ...]] = ()
     history_length: ClassVar[int | None] = 0
 
     def fit(self, X: pd.DataFrame, y: pd.DataFrame) -> "ThermalModel":

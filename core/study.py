@@ -198,6 +198,11 @@ class Job:
             recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
         targets = targets_of(recording, self.spec.targets)
         self.unit = target_unit(recording, targets)
+        lacking = [r for r in getattr(registry.get("model", spec.model).factory, "requires_roles", ())
+                   if not recording.columns(r)]
+        if lacking:
+            raise InputError(f"{recording.source}: model {spec.model} needs a channel of role {lacking[0]}, and the "
+                             "recording has none", hint="choose another model, or give that channel in the manifest")
         split = splits.make_split(spec.split, seed=spec.seed, **spec.split_params)
         folds = split.folds(recording)
         features = input_columns(recording, spec.input_roles, targets)

@@ -40,6 +40,7 @@ class Evaluator:
         self.y = recording.data[self.targets]
         self.truth = [self.y.iloc[f.test] for f in self.folds]
         self.unit = target_unit(recording, self.targets)  # of every RMSE here: µm or K
+        self.roles = {ch.role for ch in recording.channels.values()}  # what families may require (speed, ...)
 
     def pipeline(self, params: dict):
         return seeded_model("pipeline", params, self.seed)

@@ -19,7 +19,7 @@ import optuna
 import torch
 
 from thermodrift.core import registry, splits
-from thermodrift.core.automl import folds as inner, leaderboard
+from thermodrift.core.automl import folds as inner, leaderboard, space
 from thermodrift.core.automl.evaluate import Evaluator
 from thermodrift.core.automl.search import Search, SearchResult, Settings
 from thermodrift.core.errors import InputError
@@ -67,6 +67,13 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
         raise InputError(f"automl takes a split with one held-out part; split {spec.split!r} gives {len(outer)}",
                          hint="use split=condition_holdout or split=time_window")
     fold = outer[0]
+    roles = {ch.role for ch in recording.channels.values()}
+    missing = space.left_out(roles, only=settings.families)
+    if missing:  # before anything is fitted: the families that cannot run here, and why
+        say(space.left_out_line(missing, recording.source))
+    if not space.families(only=settings.families, roles=roles):
+        raise InputError(f"{recording.source}: no automl family can run on this recording",
+                         hint=space.left_out_line(missing, "it").removeprefix("automl: "))
     torch.set_num_threads(spec.threads)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     folds = inner.inner_folds(recording, fold.train, settings.max_folds)

@@ -92,7 +92,7 @@ class Search:
     def __init__(self, evaluator: Evaluator, study: optuna.Study, settings: Settings,
                  say: Callable[[str], None] = lambda line: None, progress: bool = True):
         self.ev, self.study, self.settings, self.say, self.progress = evaluator, study, settings, say, progress
-        self.families = {f.name: f for f in space.families(only=settings.families)}
+        self.families = {f.name: f for f in space.families(only=settings.families, roles=evaluator.roles)}
         self.selectors = space.selectors()
         self.n_folds = len(evaluator.folds)
         self.memory: dict[int, Evaluation] = {}  # this process's evaluations (with predictions) by trial number

@@ -85,8 +85,34 @@ class Candidate:
         return cls(d["params"], d.get("rung", 0), d.get("origin", "tpe"), d.get("label", ""))
 
 
-def families(reg: registry.Registry | None = None, only: list[str] | None = None) -> list[Family]:
-    """Every registered model that takes part (or those named in ``only``), in name order."""
+def missing_roles(cls, roles) -> list[str]:
+    """The roles of ``cls.requires_roles`` (what a model cannot run without, e.g. speed) absent from ``roles``."""
+    return [r for r in getattr(cls, "requires_roles", ()) if r not in roles]
+
+
+def left_out(roles, reg: registry.Registry | None = None, only: list[str] | None = None) -> dict[str, list[str]]:
+    """Families that would take part but cannot run on a recording with channels of ``roles`` only: name -> the
+    roles each lacks (read from the class's ``requires_roles``, before anything is fitted)."""
+    reg = reg or registry.default()
+    names = [f.name for f in families(reg, only)]
+    return {n: miss for n in names if (miss := missing_roles(reg.get("model", n).factory, roles))}
+
+
+def left_out_line(missing: dict[str, list[str]], source: str) -> str:
+    """One line naming the families :func:`left_out` found and why (empty when none)."""
+    by_roles: dict[tuple[str, ...], list[str]] = {}
+    for name, roles in missing.items():
+        by_roles.setdefault(tuple(roles), []).append(name)
+    parts = [f"{', '.join(names)} (need{'s' if len(names) == 1 else ''} a channel of role {' and '.join(roles)})"
+             for roles, names in by_roles.items()]
+    return f"automl: left out before fitting, {source} has no such channel: {'; '.join(parts)}" if parts else ""
+
+
+def families(reg: registry.Registry | None = None, only: list[str] | None = None,
+             roles=None) -> list[Family]:
+    """Every registered model that takes part (or those named in ``only``), in name order; with ``roles`` (the
+    roles of the recording's channels), only those whose ``requires_roles`` it has (:func:`left_out` names the
+    others)."""
     reg = reg or registry.default()
     for name in only or []:
         reg.get("model", name)  # an unknown name: one line with the known ones
@@ -95,6 +121,8 @@ def families(reg: registry.Registry | None = None, only: list[str] | None = None
         cls = reg.get("model", name).factory
         if getattr(cls, "uses_target_history", False):
             continue  # a reference (it reads the measured target), never a candidate
+        if roles is not None and missing_roles(cls, roles):
+            continue  # cannot run on this recording: left out before fitting
         cost = getattr(cls, "automl_cost", None) or MODEL_COSTS.get(name)
         network = isinstance(cls, type) and issubclass(cls, TorchThermalModel)
         cost = cost or ("expensive" if network else "cheap")

@@ -86,6 +86,8 @@ class LPTN(ThermalModel):
     """
 
     extra_input_roles: ClassVar[tuple[str, ...]] = ("temperature", "speed", "ambient")
+    # The auto network's heat inputs are driven by the spindle speed; without it nothing heats the hidden nodes.
+    requires_roles: ClassVar[tuple[str, ...]] = ("speed",)
     history_length: ClassVar[int | None] = None
 
     def __init__(self, hidden_nodes: int = 2, max_evaluations: int = 100, max_fit_samples: int = 20000,
