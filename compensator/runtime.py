@@ -12,24 +12,46 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-# runtime name -> module holding its ``Runtime`` class (numpy only unless the family needs more)
-MODULES = {
-    "linear": "thermodrift.compensator.linear",
-    "transfer_function": "thermodrift.compensator.filters",
-    "lptn": "thermodrift.compensator.physics",
-    "sequence": "thermodrift.compensator.networks",
-    "pipeline": "thermodrift.compensator.pipeline",
-    "ensemble": "thermodrift.compensator.pipeline",
-}
+
+class Family:
+    """A built-in runtime family: ``Family(module, cls)(state)`` imports ``module`` on first use (numpy only,
+    scipy for physics, torch only for a network) and builds its runtime."""
+
+    def __init__(self, module: str, cls: str, description: str):
+        self.module, self.cls, self.description = module, cls, description
+
+    def __call__(self, state: dict[str, Any]):
+        return getattr(importlib.import_module(self.module), self.cls)(state)
+
+
+_PKG = "thermodrift.compensator."
+
+
+def thermodrift_register_runtimes(registry):
+    """The built-in families (a third-party runtime registers its own class from its own module)."""
+    for name, module, cls, text in (
+            ("linear", "linear", "Runtime", "y = ((x − mean) / scale) · coef + intercept, as mlr predicts "
+             "(µm from °C)"),
+            ("transfer_function", "filters", "Runtime", "The feature stage (raw and first-order-filtered "
+             "temperatures, drive heat terms) and a linear read-out (µm)"),
+            ("lptn", "physics", "Runtime", "The calibrated thermal network's state observer and its linear "
+             "read-out (lptn, lptn_hybrid)"),
+            ("sequence", "networks", "Runtime", "Torch networks from their weights, loaded with weights_only"),
+            ("pipeline", "pipeline", "Runtime", "The AutoML pipeline: selected raw inputs, feature stage, inner "
+             "model"),
+            ("ensemble", "pipeline", "Ensemble", "A weighted sum of pipelines (µm)")):
+        registry.add("runtime", name, Family(_PKG + module, cls, text))
 
 
 def build(state: dict[str, Any]):
-    """The runtime of an exported model ``state`` (``state["runtime"]`` names its family)."""
+    """The runtime of an exported model ``state`` (``state["runtime"]`` names its family, a registered runtime)."""
+    from thermodrift.compensator import discovery
+
     name = state.get("runtime")
-    if name not in MODULES:
-        raise ValueError(f"unknown runtime {name!r}; this version knows {', '.join(sorted(MODULES))}")
-    module = importlib.import_module(MODULES[name])
-    return module.Runtime(state) if name != "ensemble" else module.Ensemble(state)
+    factory = discovery.find("runtime", name) if isinstance(name, str) else None
+    if factory is None:
+        raise ValueError(f"unknown runtime {name!r}; installed: {', '.join(sorted(discovery.components('runtime')))}")
+    return factory(state)
 
 
 class Base:

@@ -9,6 +9,10 @@ A plugin is a module named in the ``thermodrift`` entry-point group that impleme
     @hookimpl
     def thermodrift_register_models(registry):
         registry.add("model", "my_model", MyModel)
+
+The compensator's modules (CNC formats, runtimes) write the same functions without ``hookimpl``: they import
+nothing of core (see :mod:`thermodrift.compensator.discovery`), and the registry takes an unmarked function whose
+name is one of these hooks.
 """
 
 import pluggy
@@ -41,6 +45,16 @@ def thermodrift_register_datasets(registry):
 @hookspec
 def thermodrift_register_mechanisms(registry):
     """Register physics mechanisms (changes to a thermal network) with ``registry.add("mechanism", ...)``."""
+
+
+@hookspec
+def thermodrift_register_cnc_formats(registry):
+    """Register controller formats (``thermodrift.compensator.cnc.Format`` classes): ``registry.add("cnc", ...)``."""
+
+
+@hookspec
+def thermodrift_register_runtimes(registry):
+    """Register compensator runtimes (``cls(state)`` with ``inputs``, ``targets``, ``streamer()``): ``"runtime"``."""
 
 
 @hookspec

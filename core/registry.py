@@ -29,13 +29,15 @@ import pluggy
 from thermodrift.core import hookspecs
 from thermodrift.core.errors import DuplicateComponentError, PluginError
 
-KINDS = ("selector", "model", "optimizer", "dataset", "mechanism")
+KINDS = ("selector", "model", "optimizer", "dataset", "mechanism", "cnc", "runtime")
 _HOOKS = {
     "selector": "thermodrift_register_selectors",
     "model": "thermodrift_register_models",
     "optimizer": "thermodrift_register_optimizers",
     "dataset": "thermodrift_register_datasets",
     "mechanism": "thermodrift_register_mechanisms",
+    "cnc": "thermodrift_register_cnc_formats",
+    "runtime": "thermodrift_register_runtimes",
 }
 HOOKS = (*_HOOKS.values(), "thermodrift_hydra_searchpaths", "thermodrift_hydra_plugins")
 # What a plugin may raise while loading without stopping the others: anything but KeyboardInterrupt.
@@ -222,7 +224,7 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
     """
     if entry_points is None:
         entry_points = _entry_points()
-    manager = pluggy.PluginManager(hookspecs.PROJECT)
+    manager = _Manager(hookspecs.PROJECT)
     manager.add_hookspecs(hookspecs)
     registry = Registry()
     origins: dict[str, tuple[str, str, str]] = {}  # plugin name -> (distribution, failure key, module)
@@ -256,6 +258,18 @@ def load(entry_points: list[importlib.metadata.EntryPoint] | None = None) -> Reg
                 registry.failures[key] = _one_line(exc)
                 registry.drop(origin, module_name)
     return registry
+
+
+class _Manager(pluggy.PluginManager):
+    """pluggy's manager that also takes an unmarked function named like one of thermodrift's hooks (pytest does
+    the same for ``pytest_*``): the compensator's modules register formats and runtimes that way, importing
+    neither core nor pluggy."""
+
+    def parse_hookimpl_opts(self, plugin, name):
+        opts = super().parse_hookimpl_opts(plugin, name)
+        if opts is None and name in HOOKS and inspect.isfunction(getattr(plugin, name, None)):
+            return {}  # the defaults (not tryfirst, not a wrapper)
+        return opts
 
 
 def _one_line(exc: BaseException) -> str:
@@ -299,7 +313,7 @@ class Listing:
 # names are kept in a small JSON file, valid while the installed entry points and every file of the plugins'
 # own packages that the load imported are unchanged (same size and modification time). Neither importlib nor
 # pluggy keeps such a listing.
-_CACHE_VERSION = 2
+_CACHE_VERSION = 3
 
 
 def _cache_file(entry_points: list[importlib.metadata.EntryPoint]) -> Path | None:

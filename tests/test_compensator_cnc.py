@@ -31,7 +31,7 @@ def test_axis_line_is_the_cnc_table_line():
 
 
 def test_csv_columns_and_statuses():
-    w = cnc.Writer(FakePackage(), "csv")
+    w = cnc.writer(FakePackage(), "csv")
     assert w.header()[:4] == ["time_s", "z_near_um", "z_near_raw_um", "z_near_status"]
     (row,) = w.rows(step(15.0, [1.5, 2.5, -3.0], (0, 2, 3)))
     assert row[3] == "ok" and row[6] == "clamped" and row[9] == "held"
@@ -39,7 +39,7 @@ def test_csv_columns_and_statuses():
 
 def test_siemens_writes_mm_and_a_dimensionless_slope_within_md32760():
     # 0.01 × 10000 mm/min over a 4 ms cycle: 6.67 µm per interpolation cycle
-    w = cnc.Writer(FakePackage(), "siemens", reference_mm=100.0, max_axis_velo_mm_min=10000.0, velo_factor=0.01,
+    w = cnc.writer(FakePackage(), "siemens", reference_mm=100.0, max_axis_velo_mm_min=10000.0, velo_factor=0.01,
                    ipo_cycle_s=0.004)
     head = w.header()
     assert "z.SD43900_TEMP_COMP_ABS_VALUE_mm" in head and "z.SD43910_TEMP_COMP_SLOPE" in head
@@ -56,7 +56,7 @@ def test_siemens_writes_mm_and_a_dimensionless_slope_within_md32760():
 
 
 def test_fanuc_writes_detection_units_and_splits_changes_of_9999_or_more():
-    w = cnc.Writer(FakePackage(), "fanuc", detection_unit_um=1.0)
+    w = cnc.writer(FakePackage(), "fanuc", detection_unit_um=1.0)
     (first,) = w.rows(step(0.0, [1.4, -2.6, 0.0]))
     assert first[1:4] == [1, -3, 0] and all(isinstance(v, int) for v in first[1:4])
     rows = w.rows(step(15.0, [25000.0, 0.0, 9999.0]))
@@ -67,7 +67,7 @@ def test_fanuc_writes_detection_units_and_splits_changes_of_9999_or_more():
 
 
 def test_beckhoff_writes_tenths_of_a_micrometre_and_um_per_m():
-    w = cnc.Writer(FakePackage(), "beckhoff", reference_mm=100.0)
+    w = cnc.writer(FakePackage(), "beckhoff", reference_mm=100.0)
     head = w.header()
     (row,) = w.rows(step(0.0, [10.0, 30.0, -1.26]))
     col = {h: i for i, h in enumerate(head)}

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from thermodrift import compensator
 from thermodrift.compensator import stream
-from thermodrift.compensator.cnc import Writer
+from thermodrift.compensator.cnc import writer
 from thermodrift.compensator.errors import InputError
 
 from test_compensator_safety import export, fitted
@@ -124,7 +124,7 @@ def test_rows_of_any_cells_parse_to_a_valid_row_and_write_finite_clamped_values(
         assert isinstance(t, float) and values.shape == (len(pkg.inputs),) and values.dtype == float
     comp = pkg.compensator()
     out = io.StringIO()
-    n = stream.run(comp, Writer(pkg, "csv"), rows, parse, out)
+    n = stream.run(comp, writer(pkg, "csv"), rows, parse, out)
     written = np.array([[float(v) for v in line.split(",")[1::3]] for line in out.getvalue().splitlines()[1:]])
     assert n == len(rows) and written.shape == (len(rows), len(pkg.targets))
     assert np.isfinite(written).all() and (np.abs(written) <= comp.clamp + 1e-12).all()

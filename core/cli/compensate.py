@@ -19,7 +19,6 @@ import sys
 from thermodrift.core.cli import options
 from thermodrift.core.errors import InputError
 
-FORMAT_HELP = "csv (default): time_s, <target>_um, <target>_raw_um, <target>_status; siemens, fanuc, beckhoff"
 
 
 def configure(parser: argparse.ArgumentParser) -> None:
@@ -28,7 +27,12 @@ def configure(parser: argparse.ArgumentParser) -> None:
                                                        "rows on stdin")
     parser.add_argument("--manifest", required=True, help="YAML manifest naming the table's columns and units")
     options.add_out(parser, "values to write (CSV), or - for stdout")
-    parser.add_argument("--cnc", default="csv", help=FORMAT_HELP)
+    from thermodrift.core import registry  # the saved listing: --help stays fast
+
+    parser.add_argument("--cnc", default="csv", metavar="FORMAT",
+                        help="controller format, a registered cnc component (`thermodrift plugins`): "
+                             f"{', '.join(registry.listing().names('cnc'))}; csv (default): time_s, <target>_um, "
+                             "<target>_raw_um, <target>_status")
     parser.add_argument("--audit", default=None, help="JSON lines: every written value with inputs, raw "
                                                       "prediction, limits and reasons")
     parser.add_argument("--max-step-um", type=float, default=None,
@@ -50,8 +54,9 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from thermodrift import compensator
-    from thermodrift.compensator import cnc, stream
+    from thermodrift.compensator import stream
     from thermodrift.compensator.audit import Audit
+    from thermodrift.core import registry
 
     # Everything is checked before the first row, so a refusal writes nothing (one line, exit code 2).
     stream.check_settings({"--max-step-um": (args.max_step_um, "µm"), "--clamp-um": (args.clamp_um, "µm"),
@@ -60,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
                            "--velo-factor": (args.velo_factor, "a fraction"),
                            "--ipo-cycle-ms": (args.ipo_cycle_ms, "ms"),
                            "--reference-mm": (args.reference_mm, "mm")}, finite=("--reference-mm",))
-    _check_format(args.cnc, cnc.FORMATS)
+    _check_format(args.cnc, registry.names("cnc"))
     stream.check_writable(args.out, "output")
     stream.check_writable(args.audit, "audit log")
     pkg = compensator.load(args.package)
@@ -70,12 +75,9 @@ def run(args: argparse.Namespace) -> int:
     parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
-    try:
-        writer = cnc.Writer(pkg, args.cnc, reference_mm=args.reference_mm, detection_unit_um=args.detection_unit_um,
-                            max_axis_velo_mm_min=args.max_axis_velo_mm_min, velo_factor=args.velo_factor,
-                            ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
-    except ValueError as exc:  # a temperature target in a CNC format
-        raise InputError(str(exc), file=args.package, hint="choose --cnc csv") from None
+    writer = registry.create("cnc", args.cnc, package=pkg, reference_mm=args.reference_mm,
+                             detection_unit_um=args.detection_unit_um, max_axis_velo_mm_min=args.max_axis_velo_mm_min,
+                             velo_factor=args.velo_factor, ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
     out = sys.stdout if args.out == "-" else open(args.out, "w", newline="", encoding="utf-8")
     audit_fh = open(args.audit, "w", encoding="utf-8") if args.audit else None
     try:
