@@ -11,6 +11,7 @@ import optuna
 import pandas as pd
 
 from thermodrift.core.errors import InputError
+from thermodrift.core.metrics import rms, rmse
 from thermodrift.core.registry import build
 from thermodrift.core.search_space import distributions, suggest
 from thermodrift.testing import _optuna
