@@ -80,9 +80,10 @@ def run_case(generator: str, seed: int, hidden: str | None, error: float, struct
                        for m in d.adequacy["mechanisms"] if m["status"] == "tested"]}
 
 
-def fl_cases(data: Path, seed: int) -> list[dict]:
+def fl_cases(data: Path, seed: int, keep: Path | None = None) -> list[dict]:
     """Semi-synthetic FL_THERMAL against the ``auto`` network calibrated on the plain recording (see the module
-    docstring)."""
+    docstring). ``keep``: a CSV the calibrated simulation is written to, and read from when it exists."""
+    import pandas as pd
     from independent import fl_semi
 
     from thermodrift.core.physics.calibration import calibrate
@@ -92,10 +93,15 @@ def fl_cases(data: Path, seed: int) -> list[dict]:
     manifest = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
     rec = load_recording(data / "data.xlsx", manifest)
     start = time.perf_counter()
-    cal = calibrate(rec, None, intervals=False, prior_strength=0.0, seed=seed)
-    sim = drive(cal.network, rec)
-    print(f"FL_THERMAL: auto network calibrated on the plain recording in {time.perf_counter() - start:.0f} s",
-          file=sys.stderr, flush=True)
+    if keep is not None and keep.is_file():
+        sim = pd.read_csv(keep, index_col="time_s")
+    else:
+        cal = calibrate(rec, None, intervals=False, prior_strength=0.0, seed=seed)
+        sim = drive(cal.network, rec)
+        if keep is not None:
+            sim.to_csv(keep)
+        print(f"FL_THERMAL: auto network calibrated on the plain recording in {time.perf_counter() - start:.0f} s",
+              file=sys.stderr, flush=True)
     z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
     specs = [("fl_thermal (plain)", {}, {}, None, None)]
     for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
@@ -199,13 +205,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--pool", nargs="+", type=Path, help="run nothing: report over these --results files")
     ap.add_argument("--fl", action="store_true", help="only the semi-synthetic FL_THERMAL cases")
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="folder with FL_THERMAL data.xlsx")
+    ap.add_argument("--fl-simulation", type=Path, metavar="CSV",
+                    help="with --fl: keep the calibrated simulation in this CSV (read it when it exists)")
     ap.add_argument("--seed", type=int, default=0)
     args = ap.parse_args(argv)
     if args.fl:
         if not (args.data / "data.xlsx").is_file():
             print(f"bench: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
             return 2
-        print(report_fl(fl_cases(args.data, args.seed)))
+        print(report_fl(fl_cases(args.data, args.seed, args.fl_simulation)))
         return 0
     if args.pool:
         rows = [json.loads(line) for f in args.pool for line in f.read_text(encoding="utf-8").splitlines() if line]

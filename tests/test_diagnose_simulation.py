@@ -146,3 +146,18 @@ def test_simulate_drive_writes_a_table_diagnose_reads(tmp_path):
     r = rec.data[disp].to_numpy() - frame[disp].to_numpy()
     assert np.std(r) < 0.1 * np.std(rec.data[disp].to_numpy())
     assert cli.main(["simulate", "--network", str(net), "--drive", str(table), "--out", str(sim)]) == 2
+
+
+def test_the_auto_report_gives_every_mechanism_a_standing():
+    from types import SimpleNamespace
+
+    from thermodrift.core.physics.diagnose import status
+
+    d = SimpleNamespace(findings=[{"mechanism": "cutting_heat"}], rejected=[
+        {"mechanism": "ambient_coupling", "reason": "nested in the baseline: every conductance it adds runs parallel"},
+        {"mechanism": "thermal_tilt", "reason": "skipped: no structure or table node"},
+        {"mechanism": "sensor_lag", "reason": "screened: its response explains less of the residual"}])
+    got = {m["mechanism"]: m["status"] for m in status.listing(
+        d, ["ambient_coupling", "cutting_heat", "sensor_lag", "thermal_tilt"])}
+    assert got == {"ambient_coupling": "nested", "cutting_heat": "tested", "sensor_lag": "tested",
+                   "thermal_tilt": "untestable"}

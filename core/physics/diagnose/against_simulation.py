@@ -21,9 +21,13 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  each predicted by the null and by null + mechanism fitted without it (the lag chosen on the
                  training rows). Judged on the drift channels when the form reaches them, else on the
                  temperatures. A finding needs all three: a share of the null's held-out error on its judged
-                 channels (:data:`SHARE_MIN`), consistency (every fold improved but at most one, the final
-                 block always) and a size in noise units (:data:`SIZE_MIN`). A rival mechanism passing with
-                 :data:`RIVAL` of the best share makes it "cannot tell" (precision first: no name)
+                 channels (:data:`SHARE_MIN`), consistency (no fold worse by :data:`WORSE` of its error, at least
+                 :data:`IMPROVED` of five better) and a size in noise units (:data:`SIZE_MIN`); the temperature
+                 channels it reaches besides may not lose more than :data:`GUARD`. One judged on the drift comes
+                 first. A rival passing with :data:`RIVAL` of the best share makes it "cannot tell" (precision
+                 first: no name) unless the best is decisive against it: fitted together, the best removes
+                 :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival removes of what
+                 the best leaves
     model        the winner fitted on the rows before the final block: simulation + null + its correction, its
                  gains per channel and its lag with finite intervals, the windows where it acts, and the
                  held-out fit before and after (``report.json`` keeps its shape)
@@ -43,11 +47,14 @@ from thermodrift.core.physics.diagnose import Diagnosis, check_input, final_cut,
 from thermodrift.core.physics.diagnose.simulation_table import align
 from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
 
-SHARE_MIN = 0.3     # share of the null's held-out error (noise units, judged channels) a finding must remove
+SHARE_MIN = 0.6     # share of the null's held-out error (noise units, judged channels) a finding must remove
 SIZE_MIN = 4.0      # its correction's peak-to-peak over the fitted rows, in noise units, on one judged channel
 RIVAL = 0.8         # another mechanism passing with this share of the best's: cannot tell which
 FOLDS = 4           # contiguous groups of condition blocks before the final block
-GUARD = 0.1         # the other channels it reaches may lose at most this share of their held-out fit
+GUARD = 0.5         # the other channels it reaches may lose at most this share of their held-out fit
+WORSE = 0.2         # a fold the correction makes worse by this share of its held-out error breaks consistency
+IMPROVED = 4        # ... and at least this many of the five folds must be better
+EXTRA_MIN = 0.1     # against a rival within RIVAL: share of what is left with the rival in that the best removes
 
 
 @dataclass
@@ -69,10 +76,13 @@ class Tested:
     passed: bool = False
     reason: str = ""
 
+    fold_null: np.ndarray = None        # the null's held-out error per fold on the judged channels
+
     @property
     def consistent(self) -> bool:
+        """No fold worse by :data:`WORSE` of its held-out error, and at least :data:`IMPROVED` folds better."""
         g = self.fold_gain
-        return bool(g[-1] > 0 and (g > 0).sum() >= len(g) - 1)
+        return bool((g >= -WORSE * self.fold_null).all() and (g > 0).sum() >= IMPROVED)
 
 
 @dataclass
@@ -276,7 +286,8 @@ def assess_form(p: Problem, mechanism: str, form: dict, null_sse: np.ndarray) ->
         ci["tau_s"] = list(_grid_interval(taus, tau_all))
     rows = p.fit_rows
     size = max((float(np.ptp(corr[rows, j])) / p.sigma[j] for j in judged), default=0.0)
-    return Tested(mechanism, form, judged, fold_gain, share, size, guard, tau_all, corr, fitted, params, ci)
+    return Tested(mechanism, form, judged, fold_gain, share, size, guard, tau_all, corr, fitted, params, ci,
+                  fold_null=null_sse[:, judged].sum(axis=1))
 
 
 def _shared_tau(p: Problem, form: dict, reached: list[int], taus, train: np.ndarray) -> float:
@@ -360,8 +371,10 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
         t.passed = t.share >= SHARE_MIN and t.consistent and t.size >= SIZE_MIN and t.guard >= -GUARD
         t.reason = _why(t)
     passing = sorted([t for t in tested if t.passed], key=lambda t: -t.share)
-    win = passing[0] if passing else None
-    rivals = [t for t in passing[1:] if t.share >= RIVAL * win.share] if win else []
+    # a mechanism judged on the drift comes first (the drift is what a compensation predicts)
+    pool = [t for t in passing if p.kinds[t.judged[0]] == "displacement"] or passing
+    win = pool[0] if pool else None
+    rivals = [t for t in pool[1:] if t.share >= RIVAL * win.share and not _decisive(p, win, t, null_sse)] if win else []
     base_fit = _baseline(p)
     findings, rejected = [], []
     if win and not rivals:
@@ -386,6 +399,37 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
                      recording.speed.to_numpy(dtype=float), [], adequacy)
 
 
+def _pair_sse(p: Problem, parts: list[Tested], judged: list[int]) -> float:
+    """Held-out error (noise units, summed over the folds and ``judged`` channels) of the null plus every form
+    of ``parts`` together, each at the lag its own fit chose."""
+    total = 0.0
+    for f in range(p.n_folds):
+        test, train = p.fold == f, p.train(f)
+        for j in judged:
+            Z, y, first = _design(p, j, None, 0.0)
+            cols = [Z] + [_design(p, j, t.form, t.tau_s)[0][:, first:] for t in parts]
+            X = np.column_stack(cols)
+            signs = {int(t.form.get("sign", 0)) for t in parts}
+            sign = signs.pop() if len(signs) == 1 and p.kinds[j] == "temperature" else 0
+            beta = _solve(X, y, train, sign, first)
+            total += float(np.sum((y[test] - X[test] @ beta) ** 2)) / p.sigma[j] ** 2
+    return total
+
+
+def _decisive(p: Problem, win: Tested, rival: Tested, null_sse: np.ndarray) -> bool:
+    """Whether ``win`` removes at least :data:`EXTRA_MIN` of what is left held out once ``rival`` is in the
+    model, and twice the share ``rival`` removes once ``win`` is in (sensor lag, a fixed form, is never
+    paired: it is judged on other channels)."""
+    if "sensor_lag" in (win.form["driver"], rival.form["driver"]):
+        return False
+    judged = win.judged
+    alone_w, alone_r = _pair_sse(p, [win], judged), _pair_sse(p, [rival], judged)
+    both = _pair_sse(p, [win, rival], judged)
+    extra_w = (alone_r - both) / max(alone_r, 1e-300)
+    extra_r = (alone_w - both) / max(alone_w, 1e-300)
+    return extra_w >= EXTRA_MIN and extra_w >= 2 * extra_r
+
+
 def _baseline(p: Problem) -> np.ndarray:
     """The calibrated simulation: simulation + null fitted on the rows before the final block."""
     out = np.zeros_like(p.sim)
@@ -399,13 +443,14 @@ def _why(t: Tested) -> str:
     text = (f"held-out share {t.share:.0%} of the calibrated simulation's misfit on its judged channels, "
             f"{int((t.fold_gain > 0).sum())} of {len(t.fold_gain)} folds improved"
             f"{'' if t.fold_gain[-1] > 0 else ' (not the final block)'}, size {t.size:.3g} noise units")
+    worst = float(np.min(t.fold_gain / np.maximum(t.fold_null, 1e-300)))
     if t.passed:
         return text
     fails = []
     if t.share < SHARE_MIN:
         fails.append(f"share below {SHARE_MIN:.0%}")
     if not t.consistent:
-        fails.append("folds not consistent")
+        fails.append(f"folds not consistent (worst fold {worst:+.0%})")
     if t.size < SIZE_MIN:
         fails.append(f"size below {SIZE_MIN:g} noise units")
     if t.guard < -GUARD:
@@ -446,7 +491,8 @@ def _finding(p: Problem, t: Tested, null_sse: np.ndarray) -> dict[str, Any]:
     evidence = (f"{t.mechanism} ({t.form['driver']} through a first-order lag) removes {t.share:.0%} of the "
                 f"calibrated simulation's held-out misfit on its judged channels "
                 f"({', '.join(p.channels[j] for j in t.judged)}), improves {improved} of {len(t.fold_gain)} held-out "
-                f"folds including the final block, and its correction is {t.size:.3g} times the noise; the "
+                f"folds{' including the final block' if t.fold_gain[-1] > 0 else ''} (none worse by over "
+                f"{WORSE:.0%}), and its correction's peak-to-peak is {t.size:.3g} times the noise; the "
                 f"calibration null (simulated excess and its lags, lagged speed heat, the simulation's response to "
                 f"each recorded input it responds to) does not explain it. Held-out RMSE on the final block: {fit}")
     return {"mechanism": t.mechanism, "confidence": round(improved / len(t.fold_gain), 3),

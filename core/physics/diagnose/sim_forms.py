@@ -46,7 +46,7 @@ DRIVERS = (*INPUT_ROLES, "speed_power", "speed_squared", "speed_convection", "he
            "sensor_lag")
 HEAT_EXPONENT = 1.5
 NULL_SIM_TAUS = (900.0, 3600.0)             # lags of the simulated excess in the null (s)
-NULL_HEAT_TAUS = (900.0, 3600.0, 10800.0)   # lags of speed heat in the null (s)
+NULL_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)   # lags of speed heat in the null (s)
 ID_TAUS = (300.0, 1800.0, 7200.0, 28800.0)  # lags an input's response is identified with (s)
 NULL_INPUT_TAUS = (1800.0, 7200.0, 28800.0)  # lags of each input the simulation responds to, in the null (s)
 ID_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)
