@@ -1,4 +1,4 @@
-"""The conformance suite: the contract every selector, model, optimizer and dataset plugin keeps.
+"""The conformance suite: the contract every selector, model, optimizer, dataset, mechanism and CNC format keeps.
 
 Built-in and third-party components run the same checks, on a tiny seeded thermal recording, in seconds.
 
@@ -15,13 +15,14 @@ As pytest classes to subclass (see :mod:`thermodrift.testing.pytest_components`,
         name = "my_model"
 
 Each check is a function ``check(factory, params)`` listed by :func:`checks` (``"selector"``, ``"model"``,
-``"optimizer"``, ``"dataset"``, ``"mechanism"``); :func:`parameter_sets` gives a factory's ``get_test_params()``.
+``"optimizer"``, ``"dataset"``, ``"mechanism"``, ``"cnc"``); :func:`parameter_sets` gives a factory's ``get_test_params()``.
 """
 
 from thermodrift.testing.config_checks import check_hydra_config, compose_config
 from thermodrift.testing.data import tiny_frames, tiny_recording
 from thermodrift.testing.suite import (
     ConformanceError,
+    check_cnc_format,
     check_component,
     check_dataset,
     check_factory,
@@ -35,6 +36,7 @@ from thermodrift.testing.suite import (
 
 __all__ = [
     "ConformanceError",
+    "check_cnc_format",
     "check_component",
     "check_dataset",
     "check_factory",

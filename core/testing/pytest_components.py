@@ -51,31 +51,49 @@ class ComponentTests:
     def test_contract(self, check: Callable[[Callable[..., Any], dict], None], params: dict) -> None:
         check(self._factory(), params)
 
+
+class _ConfiguredTests(ComponentTests):
+    """A kind with a Hydra config group (selector, model, optimizer, dataset): its config is checked too."""
+
     def test_hydra_config(self) -> None:
         if self.name is None:
             pytest.skip("only a registered component (set `name`) has a Hydra config")
         check_hydra_config(self.kind, self.name, registry.default())
 
 
-class SelectorTests(ComponentTests):
+class SelectorTests(_ConfiguredTests):
     """The selector contract: estimator params, clone, pickle, seeded and stable selection of input columns."""
 
     kind = "selector"
 
 
-class ModelTests(ComponentTests):
+class ModelTests(_ConfiguredTests):
     """The model contract: estimator params, clone, pickle, seeded fits, (n, k) predictions in µm, search space."""
 
     kind = "model"
 
 
-class OptimizerTests(ComponentTests):
+class OptimizerTests(_ConfiguredTests):
     """The optimizer contract: an Optuna sampler that keeps the budget and the space and repeats with a seed."""
 
     kind = "optimizer"
 
 
-class DatasetTests(ComponentTests):
+class DatasetTests(_ConfiguredTests):
     """The dataset contract: a deterministic Recording with temperatures and a target (displacement or temperature)."""
 
     kind = "dataset"
+
+
+class MechanismTests(ComponentTests):
+    """The mechanism contract: signature and drivers, free parameters at each place, neutral values change
+    nothing, missing drivers named, a reason where it has no place."""
+
+    kind = "mechanism"
+
+
+class CncFormatTests(ComponentTests):
+    """The controller-format contract: a header starting with ``time_s``, rows as long as it, deterministic, a
+    temperature target refused by a format that writes displacements."""
+
+    kind = "cnc"

@@ -6,6 +6,7 @@ from typing import Any, Callable
 
 from thermodrift.core import registry as registry_module
 from thermodrift.core.registry import CONFIG_GROUPS, Registry
+from thermodrift.testing.cnc_checks import CNC_CHECKS
 from thermodrift.testing.config_checks import check_hydra_config
 from thermodrift.testing.dataset_checks import DATASET_CHECKS
 from thermodrift.testing.mechanism_checks import MECHANISM_CHECKS
@@ -20,6 +21,7 @@ CHECKS: dict[str, tuple[Check, ...]] = {
     "optimizer": OPTIMIZER_CHECKS,
     "dataset": DATASET_CHECKS,
     "mechanism": MECHANISM_CHECKS,
+    "cnc": CNC_CHECKS,
 }
 
 
@@ -94,6 +96,11 @@ def check_dataset(factory: Callable[..., Any]) -> None:
 def check_mechanism(cls: type) -> None:
     """Run the mechanism contract on ``cls`` (a ``Mechanism`` subclass)."""
     check_factory("mechanism", cls)
+
+
+def check_cnc_format(cls: type) -> None:
+    """Run the controller-format contract on ``cls`` (a ``thermodrift.compensator.cnc.Format`` subclass)."""
+    check_factory("cnc", cls)
 
 
 def check_component(kind: str, name: str, registry: Registry | None = None) -> None:
