@@ -32,6 +32,7 @@ def test_the_physics_families_declare_speed_and_every_other_family_runs_without_
     assert {"lptn", "lptn_hybrid"} <= needs
     roles = {ch.role for ch in no_speed().channels.values()}
     everything = {f.name for f in space.families()}
+    assert {"lptn", "lptn_hybrid", "mlr"} <= everything  # without roles to check, nothing is left out
     kept = {f.name for f in space.families(roles=roles)}
     assert kept == everything - needs and "mlr" in kept and "transfer_function" in kept
     assert space.left_out(roles) == {n: ["speed"] for n in sorted(needs & everything)}

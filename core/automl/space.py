@@ -135,9 +135,9 @@ def families(reg: registry.Registry | None = None, only: list[str] | None = None
         space = getattr(cls, "automl_space", None)
         space = dict(cls.search_space() if space is None else space)
         search_space.distributions(space)
-        roles = getattr(cls, "extra_input_roles", ())
-        takes = getattr(cls, "automl_features", name not in NO_FEATURES) and "speed" not in roles \
-            and "cutting_power" not in roles
+        reads = getattr(cls, "extra_input_roles", ())
+        takes = getattr(cls, "automl_features", name not in NO_FEATURES) and "speed" not in reads \
+            and "cutting_power" not in reads
         out.append(Family(name, cost if cost in COSTS else "cheap", space, takes, network))
     return out
 
