@@ -135,6 +135,38 @@ def check_streaming_equals_batch(factory: Factory, params: dict) -> None:
             f"({'with' if history is not None else 'without'} history); carry the state the batch uses")
 
 
+def check_export_equals_predict(factory: Factory, params: dict) -> None:
+    """A model that exports (its ``export_state()`` does not raise ``NotImplementedError``) gives a data-only
+    state (it survives a package's write and read) whose compensator runtime, fed one row at a time after the
+    history, equals ``predict(rows, history)`` within 1e-4 µm: what a controller runs is what was evaluated."""
+    import tempfile
+
+    from thermodrift.compensator import package, runtime
+
+    X, y = tiny_frames()
+    model = seeded(factory(**params))
+    Xm = _inputs(model, X, y)
+    model.fit(Xm, y)
+    try:
+        state = model.export_state()
+    except NotImplementedError:
+        return  # the model does not export: nothing runs on a controller
+    with tempfile.TemporaryDirectory() as folder:
+        state = package.read(package.write({"model": state}, folder))["model"]
+    rt = runtime.build(state)
+    cut = len(Xm) // 2
+    history, rows = Xm.iloc[:cut], Xm.iloc[cut:cut + STREAM_ROWS]
+    batch = np.asarray(model.predict(rows, history=history), dtype=float)
+    cols = list(rt.inputs)
+    stream = rt.streamer(history[cols].to_numpy(dtype=float), history.index.to_numpy(dtype=float))
+    streamed = np.array([np.asarray(stream.update(rows[cols].iloc[i].to_numpy(dtype=float), float(rows.index[i])),
+                                    dtype=float) for i in range(len(rows))])
+    worst = float(np.abs(streamed - batch).max())
+    assert worst <= STREAM_TOLERANCE_UM, (
+        f"runtime {state.get('runtime')!r} streaming the exported state differs from predict(rows, history) by up "
+        f"to {worst:.3g} µm; export what predict uses")
+
+
 HISTORY_TOLERANCE_UM = 1e-4  # float32 models included (architecture: "Models as a controller uses them")
 HISTORY_CUT, STREAM_ROWS = 200, 12
 
@@ -164,4 +196,4 @@ def check_history_consistent(factory: Factory, params: dict) -> None:
 
 MODEL_CHECKS = (*SHARED_CHECKS, check_fit_predict_shape, check_predictions_in_um, check_model_deterministic,
                 check_model_pickle, check_search_space, check_streaming_equals_batch,
-                check_history_consistent)
+                check_history_consistent, check_export_equals_predict)
