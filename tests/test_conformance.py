@@ -20,8 +20,10 @@ from thermodrift.core.components import Selector, ThermalModel
 from thermodrift.core.registry import CONFIG_GROUPS, Registry, load
 from thermodrift.testing import (
     ConformanceError,
+    check_cnc_format,
     check_component,
     check_hydra_config,
+    check_mechanism,
     check_model,
     check_optimizer,
     check_selector,
@@ -94,16 +96,19 @@ def test_hydra_config(kind, name):
 
 
 @pytest.mark.parametrize("template,check", [("selector_plugin", check_selector), ("model_plugin", check_model),
-                                            ("optimizer_plugin", check_optimizer)])
+                                            ("optimizer_plugin", check_optimizer),
+                                            ("mechanism_plugin", check_mechanism),
+                                            ("cnc_plugin", check_cnc_format)])
 def test_plugin_templates_pass_the_suite(template, check, monkeypatch):
     # the pickle checks import the class by module name
     module = load_file(TEMPLATES / f"{template}.py", f"template_{template}",
                        lambda name, mod: monkeypatch.setitem(sys.modules, name, mod))
     reg = Registry()
-    for hook in ("thermodrift_register_selectors", "thermodrift_register_models", "thermodrift_register_optimizers"):
+    for hook in ("thermodrift_register_selectors", "thermodrift_register_models", "thermodrift_register_optimizers",
+                 "thermodrift_register_mechanisms", "thermodrift_register_cnc_formats"):
         if hasattr(module, hook):
             getattr(module, hook)(registry=reg)
-    (kind,) = [k for k in ("selector", "model", "optimizer") if reg.names(k)]
+    (kind,) = [k for k in ("selector", "model", "optimizer", "mechanism", "cnc") if reg.names(k)]
     check(reg.get(kind, reg.names(kind)[0]).factory)
 
 
