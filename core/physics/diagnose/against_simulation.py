@@ -24,8 +24,9 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  channels (:data:`SHARE_MIN`), consistency (no fold worse by :data:`WORSE` of its error, at least
                  :data:`IMPROVED` of five better) and a size in noise units (:data:`SIZE_MIN`); the temperature
                  channels it reaches besides may not lose more than :data:`GUARD`. One judged on the drift comes
-                 first. A rival passing with :data:`RIVAL` of the best share makes it "cannot tell" (precision
-                 first: no name) unless the best is decisive against it: fitted together, the best removes
+                 first. A rival judged alike (passing or not) with :data:`RIVAL` of the best share makes it
+                 "cannot tell" (precision first: no name) unless the best is decisive against it: fitted
+                 together, the best removes
                  :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival removes of what
                  the best leaves
     model        the winner fitted on the rows before the final block: simulation + null + its correction, its
@@ -374,7 +375,10 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
     # a mechanism judged on the drift comes first (the drift is what a compensation predicts)
     pool = [t for t in passing if p.kinds[t.judged[0]] == "displacement"] or passing
     win = pool[0] if pool else None
-    rivals = [t for t in pool[1:] if t.share >= RIVAL * win.share and not _decisive(p, win, t, null_sse)] if win else []
+    # a rival: any other mechanism judged alike explaining as much held out, passing or not (one that fails only
+    # on its folds is still an explanation the data does not rule out)
+    rivals = [t for t in tested if win and t is not win and t.share >= RIVAL * win.share
+              and p.kinds[t.judged[0]] == p.kinds[win.judged[0]] and not _decisive(p, win, t, null_sse)]
     base_fit = _baseline(p)
     findings, rejected = [], []
     if win and not rivals:
@@ -383,7 +387,7 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
         if t is win and not rivals:
             continue
         reason = t.reason
-        if win and rivals and t in [win, *rivals]:
+        if rivals and t in [win, *rivals]:
             reason = ("cannot tell: " + ", ".join(x.mechanism for x in [win, *rivals] if x is not t)
                       + f" explains the held-out misfit as well (share {t.share:.0%}, within {RIVAL:.0%} of the best)")
         elif t.passed:
