@@ -15,10 +15,7 @@ The training rows are those of the job's last fold (the refit's), as the job rec
 
 from __future__ import annotations
 
-import json
 import math
-import tempfile
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -26,7 +23,6 @@ import pandas as pd
 from sklearn.base import clone
 
 from thermodrift.compensator import limits as limits_mod
-from thermodrift.compensator import package
 
 LIMITS = "limits.json"
 FALLBACKS = "fallbacks"
@@ -109,32 +105,18 @@ def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: floa
     return out
 
 
-def log(result) -> None:
-    """Log ``limits.json`` and ``fallbacks/`` of a job result into the active MLflow run (beside ``model``).
-    A model that reads more than recorded channels (the persistence reference reads the previous measured
-    displacement) gets neither: no controller can feed it."""
-    import mlflow
-
+def not_exportable(result) -> str | None:
+    """Why no controller can feed the job's model (it reads more than recorded channels, as the persistence
+    reference reads the previous measured displacement), or None."""
     missing = [str(c) for c in result.model.feature_names_in_ if c not in result.recording.data.columns]
     if missing:
-        mlflow.set_tag("compensator", f"not exportable: inputs {', '.join(missing)[:200]} are not recorded channels")
-        return
+        return f"not exportable: inputs {', '.join(missing)[:200]} are not recorded channels"
+    return None
+
+
+def export_parts(result) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+    """The ``limits.json`` content and the ``fallbacks/`` of a job result (see the module docstring), which
+    :func:`thermodrift.core.tracking.log_result` logs beside its ``model``."""
     X, y = training_frame(result)
-    log_training(result.model, X, y, axes(result))
-
-
-def log_training(model, X: pd.DataFrame, y: pd.DataFrame, target_axes: dict[str, dict[str, Any]]) -> None:
-    """Log ``limits.json`` and ``fallbacks/`` for ``model`` refitted on ``X`` (inputs, time index in s, roles in
-    ``attrs["roles"]``) and ``y`` (µm) into the active MLflow run; ``thermodrift automl`` calls it for its
-    chosen pipeline."""
-    import mlflow
-
-    lim = training_limits(X, y, target_axes)
-    fb = fallbacks(model, X, y, lim["sampling_interval_s"])
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / LIMITS
-        path.write_text(json.dumps(lim, indent=1), encoding="utf-8")
-        mlflow.log_artifact(str(path))
-        if fb:
-            package.write({"fallbacks": fb}, Path(tmp) / FALLBACKS)
-            mlflow.log_artifacts(str(Path(tmp) / FALLBACKS), artifact_path=FALLBACKS)
+    lim = training_limits(X, y, axes(result))
+    return lim, fallbacks(result.model, X, y, lim["sampling_interval_s"])

@@ -72,6 +72,15 @@ class JobSpec:
     progress: bool = True
     threads: int = 1  # torch CPU threads; 1 is fastest for small thermal networks
 
+    def model_space(self) -> dict:
+        """The model's search space: ``model_search_space``, else the registered model's own."""
+        return (self.model_search_space if self.model_search_space is not None
+                else registry.get("model", self.model).factory.search_space())
+
+    def budget(self) -> int:
+        """Trials each fold's study runs: ``n_trials``, or one when the model has nothing to tune."""
+        return self.n_trials if self.model_space() else 1
+
     def default_study_name(self) -> str:
         """Stable name from everything that defines the search except the budget, so re-runs resume."""
         key = {k: v for k, v in self.__dict__.items() if k not in (
@@ -208,8 +217,7 @@ class Job:
         features = input_columns(recording, spec.input_roles, targets)
         if not features:
             raise InputError(f"{recording.source}: no input channel with roles {list(spec.input_roles)}")
-        space = (spec.model_search_space if spec.model_search_space is not None
-                 else registry.get("model", spec.model).factory.search_space())
+        space = spec.model_space()
         search_space.distributions(space)  # a malformed space fails here, before any trial
         optuna.logging.set_verbosity(optuna.logging.WARNING)  # the progress bar shows the trials
         training.set_num_threads(spec.threads)
@@ -257,14 +265,14 @@ def seeded_model(name: str, params: dict, seed: int):
     return registry.create("model", name, **registry.with_seed(registry.get("model", name).factory, params, seed))
 
 
-def refit(models: list[tuple[str, str, dict]], inputs: Callable[[str], pd.DataFrame], y: pd.DataFrame,
+def refit(models: list[tuple[str, str, dict]], inputs: Callable[[str, str], pd.DataFrame], y: pd.DataFrame,
           rows: np.ndarray, seed: int) -> tuple[dict[str, Any], dict[str, float]]:
-    """Each ``(who, model name, params)`` of ``models`` fitted on ``rows`` of its input frame ``inputs(name)`` and
-    of ``y`` (µm); and the costs of ``who == "model"`` (core/efficiency.py), timed on those rows."""
+    """Each ``(who, model name, params)`` of ``models`` fitted on ``rows`` of its input frame ``inputs(who, name)``
+    and of ``y`` (µm); and the costs of ``who == "model"`` (core/efficiency.py), timed on those rows."""
     fitted: dict[str, Any] = {}
     cost: dict[str, float] = {}
     for who, name, params in models:
-        frame = inputs(name)
+        frame = inputs(who, name)
         started = time.perf_counter()
         fitted[who] = seeded_model(name, params, seed).fit(frame.iloc[rows], y.iloc[rows])
         if who == "model":
@@ -272,11 +280,11 @@ def refit(models: list[tuple[str, str, dict]], inputs: Callable[[str], pd.DataFr
     return fitted, cost
 
 
-def score(fitted: dict[str, Any], names: dict[str, str], inputs: Callable[[str], pd.DataFrame], y: pd.DataFrame,
-          rows: np.ndarray) -> tuple[dict[str, np.ndarray], dict]:
-    """Held-out predictions (µm) on ``rows`` of every fitted model (``names``: who -> model name, for its inputs)
-    and their metrics; a model with history gets every earlier input row."""
-    preds = {who: predict_rows(m, inputs(names[who]), rows) for who, m in fitted.items()}
+def score(fitted: dict[str, Any], names: dict[str, str], inputs: Callable[[str, str], pd.DataFrame],
+          y: pd.DataFrame, rows: np.ndarray) -> tuple[dict[str, np.ndarray], dict]:
+    """Held-out predictions (µm) on ``rows`` of every fitted model (``names``: who -> model name, for its inputs
+    ``inputs(who, name)``) and their metrics; a model with history gets every earlier input row."""
+    preds = {who: predict_rows(m, inputs(who, names[who]), rows) for who, m in fitted.items()}
     y_test = y.iloc[rows]
     return preds, {who: evaluate(y_test, p) for who, p in preds.items()}
 
@@ -344,7 +352,7 @@ class _FoldRun:
         study = self.job._study(self.study_name)
         resume.fail_dead_trials(study)  # a killed run's trials; they do not count against the budget
         done = sum(t.state in FINISHED and not resume.was_killed(t) for t in study.trials)
-        budget = 1 if not self.space else spec.n_trials
+        budget = spec.budget()
         if done:
             complete = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
             self.job.say(f"study {self.study_name} resumed: {complete} of {max(budget, done)} trials complete"
@@ -372,13 +380,13 @@ class _FoldRun:
         (core/efficiency.py), timed on training rows: the held-out rows are touched once, by :meth:`evaluate`."""
         spec = self.spec
         return refit([("model", spec.model, params)] + [(b, b, {}) for b in spec.baselines],
-                     lambda name: self.inputs(name, selected), self.y, self.fold.train, spec.seed)
+                     lambda who, name: self.inputs(name, selected), self.y, self.fold.train, spec.seed)
 
     def evaluate(self, fitted: dict[str, Any], selected: list[str]) -> tuple[dict[str, np.ndarray], dict]:
         """Held-out predictions (µm) of every fitted model ("model" and each baseline) and their metrics."""
         spec = self.spec
         names = {"model": spec.model, **{b: b for b in spec.baselines}}
-        return score(fitted, names, lambda name: self.inputs(name, selected), self.y, self.fold.test)
+        return score(fitted, names, lambda who, name: self.inputs(name, selected), self.y, self.fold.test)
 
     # ------------------------------------------------------------------------------------------------ tuning parts
     def objective(self, trial: optuna.Trial, selector) -> float:

@@ -17,6 +17,7 @@ its results and never imports this module.
 
 from __future__ import annotations
 
+import json
 import logging
 import os
 import re
@@ -34,6 +35,7 @@ from hydra.experimental.callback import Callback
 from mlflow.entities import Metric, Param
 from mlflow.tracking import MlflowClient
 
+from thermodrift.compensator import package
 from thermodrift.core import artifacts, deployment
 from thermodrift.core.tracking_faults import DEFAULT_URI
 
@@ -183,9 +185,138 @@ def log_result(result, params: dict[str, Any]) -> None:
     artifacts.log_model(result.model, result.spec.model)
     if result.recording is not None:  # limits.json and fallbacks/ for `thermodrift export`
         try:
-            deployment.log(result)
+            _log_export_parts(result)
         except Exception as exc:  # the job's results are logged; what export needs and failed is only noted
             mlflow.set_tag("compensator_error", _short(f"{type(exc).__name__}: {exc}"))
+
+
+def _log_export_parts(result) -> None:
+    """``limits.json`` and ``fallbacks/`` (:mod:`thermodrift.core.deployment`) beside the run's ``model``, or the
+    tag ``compensator`` saying why the model cannot be exported."""
+    reason = deployment.not_exportable(result)
+    if reason:
+        mlflow.set_tag("compensator", reason)
+        return
+    lim, fallbacks = deployment.export_parts(result)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / deployment.LIMITS
+        path.write_text(json.dumps(lim, indent=1), encoding="utf-8")
+        mlflow.log_artifact(str(path))
+        if fallbacks:
+            package.write({"fallbacks": fallbacks}, Path(tmp) / deployment.FALLBACKS)
+            mlflow.log_artifacts(str(Path(tmp) / deployment.FALLBACKS), artifact_path=deployment.FALLBACKS)
+
+
+def log_automl(result, config: dict, chosen_label: str) -> None:
+    """Log an :class:`~thermodrift.core.automl.job.AutoMLResult` into the active run (the parent: held-out metrics
+    as :func:`log_result` logs them, the leaderboard, the choice) and one child run per family tried."""
+    from thermodrift.core.automl import leaderboard, space
+
+    job = result.job
+    chosen = {"name": job.spec.model, "params": job.spec.model_params}
+    params = {k: v for k, v in config.items() if k not in ("model", "selector", "optimizer", "search_space",
+                                                            "n_trials")}
+    log_result(job, {**params, "model": chosen})  # with the model: limits.json, as `run` logs it
+    best = result.search.best
+    mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol, "automl.chosen": chosen_label[:5000],
+                     "automl.family": best.candidate.family, "automl.stopped_by": result.search.stopped_by})
+    failed = int((result.leaderboard["status"] == "failed").sum())
+    mlflow.log_metrics({"automl/fits": float(result.search.fits), "automl/candidates": float(len(result.leaderboard)),
+                        "automl/failed": float(failed), "automl/wall_s": float(result.wall_s),
+                        "automl/inner_score": float(job.valid_rmse)})
+    with tempfile.TemporaryDirectory() as tmp:
+        csv = Path(tmp) / "leaderboard.csv"
+        result.leaderboard.to_csv(csv, index=False)
+        (Path(tmp) / "leaderboard.md").write_text(leaderboard.markdown(result.leaderboard, top=None) + "\n",
+                                                  encoding="utf-8")
+        mlflow.log_artifact(str(csv))
+        mlflow.log_artifact(str(Path(tmp) / "leaderboard.md"))
+        (Path(tmp) / "chosen.json").write_text(json.dumps(chosen, indent=2, default=str), encoding="utf-8")
+        mlflow.log_artifact(str(Path(tmp) / "chosen.json"))
+    parent = mlflow.active_run().info.run_id
+    board = result.leaderboard[result.leaderboard["model"] != "ensemble"]
+    for family, rows in board.groupby("model", sort=True):
+        ok = rows[rows["status"] == "ok"]
+        with mlflow.start_run(run_name=f"automl candidate · {family}", nested=True,
+                              tags={"kind": "automl_candidate", "model": str(family), "mlflow.parentRunId": parent,
+                                    "dataset": job.spec.dataset, "split": job.spec.split}):
+            metrics = {"automl/candidates": float(len(rows)), "automl/failed": float(len(rows) - len(ok))}
+            if len(ok):
+                top = ok.iloc[0]
+                metrics["inner/score"] = float(top["inner_score"])
+                metrics.update({metric_key("inner", c): float(top[c]) for c in ok.columns
+                                if c.startswith(("fold", "rmse ")) and top[c] == top[c]})
+                mlflow.log_param("best_params", str(top["params"])[:500])
+                mlflow.log_param("best_label", space.describe(json.loads(top["params"]))[:500])
+            else:
+                mlflow.set_tag("error", str(rows.iloc[0]["error"])[:5000])
+            mlflow.log_metrics(metrics)
+
+
+def fail_run(exc: BaseException) -> None:
+    """End the active run as FAILED with the error as its tag ``error``."""
+    mlflow.set_tag("error", str(exc)[:5000])
+    mlflow.end_run(status="FAILED")
+
+
+def set_tag(key: str, value: str) -> None:
+    """Tag the active run."""
+    mlflow.set_tag(key, value)
+
+
+def client() -> MlflowClient:
+    """A client of the current tracking store (the one :func:`setup` pointed MLflow at)."""
+    return MlflowClient()
+
+
+def logged_run(uri: str, run_id: str):
+    """The MLflow run ``run_id`` at ``uri`` (after :func:`setup`); InputError when there is none."""
+    from mlflow.exceptions import MlflowException
+
+    from thermodrift.core.errors import InputError
+
+    setup(uri, "thermodrift")
+    try:
+        return client().get_run(run_id)
+    except MlflowException:
+        raise InputError(f"no MLflow run {run_id!r} at {uri}",
+                         hint="pass the id that `thermodrift run` printed and the same --tracking-uri") from None
+
+
+def artifact_paths(run_id: str) -> set[str]:
+    """The paths at the artifact root of run ``run_id``."""
+    return {a.path for a in client().list_artifacts(run_id)}
+
+
+def download(uri: str, run_id: str, path: str | None, dst: str | Path) -> Path | None:
+    """Run ``run_id``'s artifact ``path`` (None: all of them) downloaded into ``dst``; None when it is missing."""
+    from mlflow.exceptions import MlflowException
+
+    os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+    try:
+        if path is None:
+            return Path(mlflow.artifacts.download_artifacts(run_id=run_id, dst_path=str(dst), tracking_uri=uri))
+        return Path(mlflow.artifacts.download_artifacts(artifact_uri=f"runs:/{run_id}/{path}", dst_path=str(dst),
+                                                        tracking_uri=uri))
+    except MlflowException:
+        if path is None:
+            raise
+        return None
+
+
+def drop_active_runs() -> None:
+    """Forget the runs this process has open after the server went away (ending them would fail too); the
+    next job of the same study closes them as KILLED."""
+    from thermodrift.core import tracking_faults
+
+    while mlflow.active_run() is not None:
+        try:
+            mlflow.end_run(status="FAILED")
+        except tracking_faults.failures():
+            from mlflow.tracking import fluent
+
+            stack = fluent._active_run_stack.get()  # mlflow has no public way to drop a run it cannot end
+            stack.pop()
 
 
 def _log_dataset(result) -> None:
@@ -274,7 +405,7 @@ def figures(result) -> dict[str, Any]:
     fold = result.folds[-1]
     hours = fold.time_s / 3600.0
     k = fold.y_true.shape[1]
-    title = f"{run_name(result.spec)} — held out: {fold.name}"
+    title = f"{run_name(result.spec)} — {fold.name if 'held out' in fold.name else f'held out: {fold.name}'}"
     styles = {who: _STYLES.get(who, _OTHER[i % len(_OTHER)]) for i, who in enumerate(fold.predictions)}
 
     def error_unit(col: str) -> str:  # µm for a displacement, K for a temperature

@@ -20,7 +20,8 @@ def cfg_for():
 
 def test_defaults_are_the_embedded_main_job(cfg_for):
     spec = spec_from_config(cfg_for())
-    assert (spec.dataset, spec.model, spec.optimizer, spec.split) == ("demo_spindle", "mlr", "tpe", "condition_holdout")
+    assert (spec.dataset, spec.model, spec.optimizer, spec.split) == ("demo_spindle", "transfer_function", "tpe",
+                                                                  "condition_holdout")
     assert spec.baselines == ("persistence", "mlr") and spec.storage == "sqlite:///thermodrift.optuna.db"
 
 
@@ -41,10 +42,10 @@ def test_hydra_options_are_accepted_anywhere():
 
 
 def test_top_level_search_space_replaces_the_models(cfg_for):
-    assert spec_from_config(cfg_for()).model_search_space == {
+    assert spec_from_config(cfg_for("model=mlr")).model_search_space == {
         "alpha": {"type": "float", "low": 1.0e-6, "high": 100.0, "log": True}}
     assert spec_from_config(cfg_for("search_space={}")).model_search_space == {}
     narrow = spec_from_config(cfg_for("search_space={alpha: {type: float, low: 0.01, high: 10, log: true}}"))
     assert narrow.model_search_space == {"alpha": {"type": "float", "low": 0.01, "high": 10, "log": True}}
     # what the top-level key is for: Hydra merges a dict given to model.search_space into the model's
-    assert set(spec_from_config(cfg_for("model.search_space={}")).model_search_space) == {"alpha"}
+    assert set(spec_from_config(cfg_for("model=mlr", "model.search_space={}")).model_search_space) == {"alpha"}

@@ -47,3 +47,11 @@ def test_a_component_gets_its_seed_only_through_registry_with_seed():
     seeding = re.compile(r"""setdefault\(\s*["'](random_state|seed)["']|["']random_state["']\s*:\s*(?!None)[A-Za-z_]""")
     homes = {path for path, text in _sources(*PACKAGE).items() if seeding.search(text)}
     assert homes == set()
+
+
+def test_mlflow_is_called_from_tracking_only_among_the_job_the_cli_and_deployment():
+    """The job's verbs and the export parts reach MLflow through :mod:`thermodrift.core.tracking`."""
+    calls = re.compile(r"\bmlflow\.\w|MlflowClient|^\s*import mlflow|^\s*from mlflow", re.M)
+    homes = {path for path, text in _sources("core/cli", "core/automl").items() if calls.search(text)}
+    homes |= {p for p in ["core/deployment.py", "core/study.py"] if calls.search((REPO / p).read_text(encoding="utf-8"))}
+    assert homes == set()

@@ -38,7 +38,7 @@ def test_main_job_on_embedded_defaults(tmp_path, cli):
 
 
 def test_single_run_logs_held_out_metrics_and_baselines(workdir, cli):
-    out = cli(workdir, "run", *TINY, "n_trials=4", "seed=3")
+    out = cli(workdir, "run", *TINY, "model=mlr", "n_trials=4", "seed=3")
     assert out.returncode == 0, out.stderr[-2000:]
     assert "persistence" in out.stdout and "mlr" in out.stdout
     (run,) = runs(workdir)
@@ -99,9 +99,9 @@ def test_parallel_grid_makes_one_parent_and_tagged_children(workdir, cli):
 
 
 def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdir, cli):
-    first = cli(workdir, "run", *TINY, "n_trials=2")
+    first = cli(workdir, "run", *TINY, "model=mlr", "n_trials=2")
     assert first.returncode == 0 and " resumed: " not in first.stdout, first.stderr[-2000:]
-    second = cli(workdir, "run", *TINY, "n_trials=2")
+    second = cli(workdir, "run", *TINY, "model=mlr", "n_trials=2")
     assert second.returncode == 0, second.stderr[-2000:]
     (line,) = [ln for ln in second.stdout.splitlines() if " resumed: " in ln]
     assert line.startswith("study recording_file-") and line.endswith("resumed: 2 of 2 trials complete, 0 to run")
@@ -111,7 +111,7 @@ def test_rerun_says_resumed_with_stored_counts_and_logs_the_stored_trials(workdi
 
 
 def test_untuned_job_output_names_targets_references_and_figures(workdir, cli):
-    out = cli(workdir, "run", *TINY, "n_trials=0")
+    out = cli(workdir, "run", *TINY, "model=mlr", "n_trials=0")
     assert out.returncode == 0, out.stderr[-2000:]
     text = out.stdout
     assert "targets (µm): disp_z_um, disp_x_um" in text and "untuned (n_trials=0)" in text

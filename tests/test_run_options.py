@@ -24,7 +24,7 @@ def test_help_lists_every_groups_options_from_the_registry_and_the_keys_with_mea
     for kind in ("selector", "model", "optimizer", "dataset"):
         assert all(name in text for name in reg.names(kind)), kind
     assert "only_in_the_registry" in text and "pso_s1" in text and "forward_chaining" in text
-    assert "mlr*" in text and "tpe*" in text  # defaults marked
+    assert "transfer_function*" in text and "tpe*" in text  # defaults marked
     n_trials = next(ln for ln in text.splitlines() if ln.strip().startswith("n_trials "))
     assert "20" in n_trials and "Optuna trials per fold" in n_trials
     assert "(µm)" in next(ln for ln in text.splitlines() if ln.strip().startswith("targets "))

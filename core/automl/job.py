@@ -100,7 +100,7 @@ def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: lis
     columns = input_columns(recording, spec.input_roles, targets)
     frames = {}
 
-    def inputs(name: str):
+    def inputs(who: str, name: str):
         if name not in frames:
             frames[name] = model_inputs(recording, columns, registry.get("model", name).factory, targets)
         return frames[name]

@@ -276,7 +276,7 @@ class Search:
         keep, ref = eligible(ok, prior)
         if len(keep) < len(ok):
             self.say(f"automl: {len(ok) - len(keep)} TPE candidate(s) left out of the final choice: tuned on the "
-                     f"folds that score them, they do not beat #{ref.number} ({space.describe(ref.candidate.params)}"
+                     f"folds that score them, they do not beat trial {ref.number} ({space.describe(ref.candidate.params)}"
                      f") by more than one standard error across the folds")
         return keep
 

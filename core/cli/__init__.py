@@ -40,6 +40,7 @@ def main(argv: list[str] | None = None) -> int:
         from thermodrift.core.cli import run_options  # no Hydra, MLflow or torch: answers fast
         print(run_options.help_text())
         return 0
+    verb = argv[0] if argv else ""
     if argv and argv[0] == "automl":  # `thermodrift run automl=default ...`: the same overrides and checks
         from thermodrift.core.cli import automl as automl_options
         if "-h" in argv[1:] or "--help" in argv[1:]:
@@ -53,6 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         def run_app() -> int:
             # Before the slow imports (plugins, Hydra, MLflow, torch): a misspelt group option or key is answered
             # from the saved listing of installed components, as fast as --help, and a dead server is reported.
+            run_options.check_flags(argv[1:], verb)
             run_options.check_overrides(run_options.split_flags(argv[1:])[1], registry.listing())
             tracking_faults.precheck(argv[1:])
             from thermodrift.core.cli import run as app

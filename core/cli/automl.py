@@ -10,8 +10,7 @@ root, the chosen pipeline's parameters, the pipeline as ``model``), with one chi
 
 from __future__ import annotations
 
-import json
-import tempfile
+import sys
 from pathlib import Path
 
 USAGE = """usage: thermodrift automl [KEY=VALUE ...] [GROUP=OPTION ...] [automl.KEY=VALUE ...]
@@ -58,7 +57,6 @@ def as_run(args: list[str]) -> list[str]:
 
 def job(cfg, spec, multirun: bool, bad_input) -> float | None:
     """Run the search of ``cfg.automl`` for ``spec``'s dataset, split and targets, tracked in MLflow."""
-    import mlflow
     from omegaconf import OmegaConf
 
     from thermodrift.core import resume, tracking
@@ -78,67 +76,18 @@ def job(cfg, spec, multirun: bool, bad_input) -> float | None:
     tags = {"kind": "automl", "dataset": spec.dataset, "split": spec.split, "ablation": str(config.get("ablation")),
             "model": "pending", "protocol": "pending", "recording": dataset, resume.STUDY_TAG: name,
             resume.OWNER_ATTR: resume.owner()}
+    if spec.progress and not sys.stderr.isatty():  # a bar redrawn in a file or a pipe is one long line
+        spec.progress = False
     with tracking.start_job_run(f"{dataset} · automl · {spec.split}", tags) as run:
         try:
             result = automl_job.run(spec, settings, say=error_line)
         except (InputError, PluginError) as exc:
-            mlflow.set_tag("error", str(exc)[:5000])
-            mlflow.end_run(status="FAILED")
+            tracking.fail_run(exc)
             return bad_input(exc, multirun)
-        log(result, config)
+        tracking.log_automl(result, config, _describe(result))
         by_horizon = tracking.log_horizons(result.job, config.get("horizons_h") or [])
     print(report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI, by_horizon), flush=True)
     return result.job.valid_rmse
-
-
-def log(result, config: dict) -> None:
-    """Log an :class:`~thermodrift.core.automl.job.AutoMLResult` into the active run (the parent) and one child run
-    per family tried."""
-    import mlflow
-
-    from thermodrift.core import tracking
-    from thermodrift.core.automl import leaderboard, space
-
-    job = result.job
-    chosen = {"name": job.spec.model, "params": job.spec.model_params}
-    params = {k: v for k, v in config.items() if k not in ("model", "selector", "optimizer", "search_space",
-                                                            "n_trials")}
-    tracking.log_result(job, {**params, "model": chosen})  # with the model: limits.json, as `run` logs it
-    best = result.search.best
-    mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol,
-                     "automl.chosen": _describe(result)[:5000], "automl.family": best.candidate.family,
-                     "automl.stopped_by": result.search.stopped_by})
-    failed = int((result.leaderboard["status"] == "failed").sum())
-    mlflow.log_metrics({"automl/fits": float(result.search.fits), "automl/candidates": float(len(result.leaderboard)),
-                        "automl/failed": float(failed), "automl/wall_s": float(result.wall_s),
-                        "automl/inner_score": float(job.valid_rmse)})
-    with tempfile.TemporaryDirectory() as tmp:
-        csv = Path(tmp) / "leaderboard.csv"
-        result.leaderboard.to_csv(csv, index=False)
-        (Path(tmp) / "leaderboard.md").write_text(leaderboard.markdown(result.leaderboard, top=None) + "\n",
-                                                  encoding="utf-8")
-        mlflow.log_artifact(str(csv))
-        mlflow.log_artifact(str(Path(tmp) / "leaderboard.md"))
-        (Path(tmp) / "chosen.json").write_text(json.dumps(chosen, indent=2, default=str), encoding="utf-8")
-        mlflow.log_artifact(str(Path(tmp) / "chosen.json"))
-    parent = mlflow.active_run().info.run_id
-    board = result.leaderboard[result.leaderboard["model"] != "ensemble"]
-    for family, rows in board.groupby("model", sort=True):
-        ok = rows[rows["status"] == "ok"]
-        with mlflow.start_run(run_name=f"automl candidate · {family}", nested=True,
-                              tags={"kind": "automl_candidate", "model": str(family), "mlflow.parentRunId": parent,
-                                    "dataset": job.spec.dataset, "split": job.spec.split}):
-            metrics = {"automl/candidates": float(len(rows)), "automl/failed": float(len(rows) - len(ok))}
-            if len(ok):
-                top = ok.iloc[0]
-                metrics["inner/score"] = float(top["inner_score"])
-                metrics.update({tracking.metric_key("inner", c): float(top[c]) for c in ok.columns
-                                if c.startswith(("fold", "rmse ")) and top[c] == top[c]})
-                mlflow.log_param("best_params", str(top["params"])[:500])
-                mlflow.log_param("best_label", space.describe(json.loads(top["params"]))[:500])
-            else:
-                mlflow.set_tag("error", str(rows.iloc[0]["error"])[:5000])
-            mlflow.log_metrics(metrics)
 
 
 def _describe(result) -> str:
@@ -150,6 +99,11 @@ def _describe(result) -> str:
     return " + ".join(f"{w:.2f} × [{space.describe(m)}]" for w, m in zip(ens["weights"], ens["members"]))
 
 
+def _inputs(job) -> list[str]:
+    """The candidate input temperatures of an automl job (what its baselines read)."""
+    return [c for role in job.spec.input_roles for c in job.recording.columns(role)]
+
+
 def report(result, run, uri: str, by_horizon=None) -> str:
     """What a person reads after the search: the leaderboard's top, the choice, held-out metrics beside the
     baselines, the parent run."""
@@ -157,7 +111,7 @@ def report(result, run, uri: str, by_horizon=None) -> str:
 
     job = result.job
     board = result.leaderboard
-    show = board[["rank", "model", "settings", "selector", "features", "status", "inner_score"]
+    show = board[["rank", "trial", "model", "settings", "selector", "features", "status", "inner_score"]
                  + [c for c in board.columns if c.startswith("fold")]].head(10)
     table = tracking.comparison(job)[["rmse", "mae", "max_abs_error", "r2"]]
     for target in job.targets:
@@ -172,6 +126,8 @@ def report(result, run, uri: str, by_horizon=None) -> str:
              f"held-out ({job.folds[0].name}), {job.unit}, mean over targets:",
              table.to_string(float_format="%.3f"),
              *tracking.horizon_lines(by_horizon, job.unit),
+             *([f"mlr baseline: MLR on every input temperature ({len(_inputs(job))}), as in every automl job"]
+               if "mlr" in job.spec.baselines else []),
              f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",
              f"MLflow run {run.info.run_id} at {uri}"]
     return "\n".join(lines)

@@ -37,7 +37,8 @@ def configure(parser: argparse.ArgumentParser) -> None:
     options.add_tracking_uri(parser, optional=True)
     parser.add_argument("--seed", type=int, default=0, help="seed of the block bootstrap (default 0)")
     parser.add_argument("--alpha", type=float, default=0.01,
-                        help="family-wise level of the likelihood-ratio tests, Bonferroni-corrected (default 0.01)")
+                        help="false-discovery level of the likelihood-ratio tests: Benjamini-Hochberg over each round's "
+                             "candidates, spent as alpha/2, alpha/4, ... over the rounds (default 0.01)")
     parser.add_argument("--max-rounds", type=int, default=3, help="forward-selection rounds at most (default 3)")
     parser.add_argument("--simulation", default=None, metavar="SIM",
                         help="the user's simulation of this recording (CSV, Parquet or XLSX): find what it leaves out")
@@ -88,6 +89,14 @@ def run(args: argparse.Namespace) -> int:
     if untested:
         print("  not tested: " + "; ".join(f"{m['mechanism']} ({m['status']})" for m in untested))
     for f in doc["findings"]:
-        print(f"  found {f['mechanism']} (confidence {f['confidence']:.2f}): {f['parameters']}")
-    print(f"wrote {out}")
+        print(finding_line(f))
+    print(f"wrote {', '.join(str(p) for p in sorted(out.iterdir()) if p.is_file())}")
     return 0
+
+
+def finding_line(finding: dict) -> str:
+    """A finding for the console: its fitted and fixed values (its label when it has neither)."""
+    values = {**finding.get("parameters", {}), **finding.get("fixed", {})}
+    shown = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())
+    return (f"  found {finding['mechanism']} (confidence {finding['confidence']:.2f}): "
+            f"{shown or finding.get('label') or 'no parameter to estimate'}")

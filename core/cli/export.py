@@ -23,45 +23,29 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import json
-    import os
     import platform
     import tempfile
 
-    import mlflow
     import numpy as np
-    from mlflow.exceptions import MlflowException
-    from mlflow.tracking import MlflowClient
 
     from thermodrift import compensator
     from thermodrift.compensator import package
     from thermodrift.core import artifacts, deployment, tracking
     from thermodrift.core.errors import InputError
 
-    tracking.setup(args.tracking_uri, "thermodrift")
-    client = MlflowClient(args.tracking_uri)
-    try:
-        run_info = client.get_run(args.run_id)
-    except MlflowException:
-        raise InputError(f"no MLflow run {args.run_id!r} at {args.tracking_uri}",
-                         hint="pass the id that `thermodrift run` printed and the same --tracking-uri") from None
+    run_info = tracking.logged_run(args.tracking_uri, args.run_id)
     reason = run_info.data.tags.get("compensator") or run_info.data.tags.get("compensator_error")
     if reason:
         raise InputError(f"run {args.run_id}: {reason}", hint="export a run of a model that reads recorded channels")
-    if deployment.LIMITS not in {a.path for a in client.list_artifacts(args.run_id)}:
+    if deployment.LIMITS not in tracking.artifact_paths(args.run_id):
         raise InputError(f"run {args.run_id} has no {deployment.LIMITS!r} artifact",
                          hint="export a job run of `thermodrift run` (not a sweep's parent run); rerun the job "
                               "with this version if it was logged by an older one")
-    os.environ.setdefault("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
     with tempfile.TemporaryDirectory() as tmp:
-        local = Path(mlflow.artifacts.download_artifacts(run_id=args.run_id, dst_path=tmp,
-                                                         tracking_uri=args.tracking_uri))
-        try:
-            model_dir = Path(mlflow.artifacts.download_artifacts(artifact_uri=f"runs:/{args.run_id}/model",
-                                                                 dst_path=f"{tmp}/logged_model",
-                                                                 tracking_uri=args.tracking_uri))
-        except MlflowException:
-            raise InputError(f"run {args.run_id} has no logged model", hint="export a job run of `thermodrift run`") \
-                from None
+        local = tracking.download(args.tracking_uri, args.run_id, None, tmp)
+        model_dir = tracking.download(args.tracking_uri, args.run_id, "model", f"{tmp}/logged_model")
+        if model_dir is None:
+            raise InputError(f"run {args.run_id} has no logged model", hint="export a job run of `thermodrift run`")
         stored = next(p.parent for p in model_dir.rglob("model.json"))
         model = artifacts.load(stored)
         try:
@@ -86,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
                                    "dataset": run_info.data.tags.get("dataset")})
     out = package.write(doc, args.out)
     compensator.load(out)  # what was written loads
-    client.log_artifacts(args.run_id, str(out), artifact_path="compensator")
+    tracking.client().log_artifacts(args.run_id, str(out), artifact_path="compensator")
     print(f"compensator package of run {args.run_id} (model {run_info.data.tags.get('model')}, "
           f"{len(state['inputs'])} inputs, targets {', '.join(state['targets'])}, "
           f"{len(fallbacks)} fallbacks) written to {out}; logged on the run as compensator/")

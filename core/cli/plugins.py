@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import re
 import sys
 
 from thermodrift.core import registry
@@ -16,14 +17,15 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def describe(component: registry.Component) -> str:
-    """One line of plain text: the factory's ``description`` attribute, else the first line of its own docstring
-    (not one inherited from a base class), else of its module's docstring; '' without any."""
+    """One sentence of plain text: the factory's ``description`` attribute, else the first sentence of its own
+    docstring (not one inherited from a base class), else of its module's docstring; '' without any."""
     factory = component.factory
     own = factory.__dict__.get("__doc__") if isinstance(factory, type) else getattr(factory, "__doc__", None)
     for text in (getattr(factory, "description", None), own,
                  getattr(sys.modules.get(getattr(factory, "__module__", "")), "__doc__", None)):
         if isinstance(text, str) and text.strip():
-            return plain(inspect.cleandoc(text).splitlines()[0]).strip()
+            paragraph = " ".join(inspect.cleandoc(text).split("\n\n")[0].split())
+            return plain(re.split(r"(?<=\.)\s+(?=[A-Z`])", paragraph)[0]).strip()
     return ""
 
 

@@ -14,12 +14,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from mlflow.tracking import MlflowClient
-
     from thermodrift.core import report, tracking
 
     tracking.setup(args.tracking_uri, "thermodrift")
-    client = MlflowClient(args.tracking_uri)
+    client = tracking.client()
     parent = report.parent_run(client, args.ref)
     sweep = parent.data.tags.get("sweep_id") or parent.info.run_id
     out = args.out.replace("<sweep id>", sweep)

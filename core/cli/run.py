@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Callable
 
 import hydra
-import mlflow
 from hydra.core.hydra_config import HydraConfig
 from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
@@ -51,7 +50,7 @@ class Lifecycle(tracking.SweepRun):
         try:
             super().on_multirun_end(config, **kwargs)
             if parent:
-                print(sweep_report(mlflow.MlflowClient().get_run(parent), config), flush=True)
+                print(sweep_report(tracking.client().get_run(parent), config), flush=True)
         except tracking_faults.failures() as exc:
             jobs = {p.parent.name: json.loads(p.read_text(encoding="utf-8"))
                     for p in Path(config.hydra.sweep.dir).glob("*/job.json")}
@@ -73,7 +72,7 @@ class Lifecycle(tracking.SweepRun):
             raise SystemExit(2) from None
         with schema.exclusive(config.tracking.uri):
             super().on_multirun_start(config, **kwargs)
-        mlflow.MlflowClient().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
+        tracking.client().set_tag(os.environ[tracking.PARENT_ENV], resume.OWNER_ATTR, resume.owner())
 
 
 def sweep_report(parent, config) -> str:
@@ -135,7 +134,7 @@ def _task(cfg: DictConfig) -> float | None:
         _record_job(study_name, None)
         return _bad_input(exc, multirun)
     except tracking_faults.failures() as exc:
-        _drop_active_runs()
+        tracking.drop_active_runs()
         value = _bad_input(tracking_faults.lost(cfg.tracking.uri, study_name, spec.storage, exc), multirun)
     _record_job(study_name, value)
     return value
@@ -164,28 +163,27 @@ def _job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
     if getattr(registry.get("model", spec.model).factory, "uses_target_history", False):
         tags["reference"] = "reads the measured target"  # not a compensation model: never a grid's best job
     with tracking.start_job_run(run_name, tags) as run:
-        killed = resume.close_dead_runs(mlflow.MlflowClient(), run.info.experiment_id, study_name)
+        killed = resume.close_dead_runs(tracking.client(), run.info.experiment_id, study_name)
         if killed:  # this job resumes the study of a killed job
-            mlflow.set_tag(resume.RESUMES_TAG, ",".join(killed))
+            tracking.set_tag(resume.RESUMES_TAG, ",".join(killed))
         logger = tracking.TrialLogger(run.info.run_id)
         trial_log = tracking_faults.BufferedCallback(logger)
         job = Job(spec, callbacks=[trial_log], say=say)
         if spec.progress and not sys.stderr.isatty():  # a bar in a file or pipe is one long line: lines instead
             spec.progress = False
-            job.callbacks.append(ProgressLines(spec.n_trials, lambda: job.unit))
+            job.callbacks.append(ProgressLines(spec.budget(), lambda: job.unit))
         LOG.info("%s: study %s, MLflow run %s", run_name, study_name, run.info.run_id)
         try:
             result = job.run()
         except (InputError, PluginError) as exc:
-            mlflow.set_tag("error", str(exc)[:5000])
-            mlflow.end_run(status="FAILED")
+            tracking.fail_run(exc)
             return _bad_input(exc, multirun)
         if not trial_log.flush(result.study):
             trial_log.inner(result.study, trial_log.pending[0])  # raises the server's error
         for fold in result.folds:  # a resumed study's stored trials, so the run has every trial's curve
             if fold.study is not None and fold.trials_before:
                 logger.replay(fold.study, fold.trials_before)
-        mlflow.set_tag("protocol", result.protocol)
+        tracking.set_tag("protocol", result.protocol)
         tracking.log_result(result, OmegaConf.to_container(cfg, resolve=True))
         by_horizon = tracking.log_horizons(result, list(cfg.get("horizons_h") or []))
     say(job_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI, by_horizon))
@@ -244,6 +242,9 @@ def job_report(result, run, uri: str, by_horizon=None) -> str:
              f"held-out ({'; '.join(f.name for f in result.folds)}), {result.unit}, mean over "
              f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
              table.to_string(float_format="%.3f"), *tracking.horizon_lines(by_horizon, result.unit)]
+    if "mlr" in result.spec.baselines:
+        lines.append(f"mlr baseline: MLR on the {len(result.selected)} selected sensors"
+                     f"{' (last fold)' if len(result.folds) > 1 else ''}, the model's inputs")
     same = result.same_as()
     if same:
         lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 "
@@ -255,19 +256,6 @@ def job_report(result, run, uri: str, by_horizon=None) -> str:
     lines.append(f"figures: {run.info.artifact_uri}/{tracking.FIGURES}/")
     lines.append(f"MLflow run {run.info.run_id} at {uri}")
     return "\n".join(lines)
-
-
-def _drop_active_runs() -> None:
-    """Forget the runs this process has open after the server went away (ending them would fail too); the
-    next job of the same study closes them as KILLED."""
-    while mlflow.active_run() is not None:
-        try:
-            mlflow.end_run(status="FAILED")
-        except tracking_faults.failures():
-            from mlflow.tracking import fluent
-
-            stack = fluent._active_run_stack.get()  # mlflow has no public way to drop a run it cannot end
-            stack.pop()
 
 
 def _bad_input(exc: Exception, multirun: bool) -> None:

@@ -36,7 +36,7 @@ GROUP_KEYS = {"dataset": ["name", "params"], "split": ["kind", "params"], "selec
               "automl": ["budget_fits", "timeout_s", "max_folds", "tpe_families", "top_rung", "ensemble_pool",
                          "ensemble_steps", "families"]}
 EXAMPLES = """\
-  thermodrift run                                    demo_spindle, mlr tuned by tpe, 20 trials
+  thermodrift run                                    demo_spindle, transfer_function tuned by tpe, 20 trials
   thermodrift run model=bp n_trials=50               another model, a larger budget
   thermodrift run model=bp model.params.trainer.epochs=100
   thermodrift run -m model=mlr,bp optimizer=tpe,pso  a grid: one job per combination
@@ -145,6 +145,40 @@ def split_flags(args: list[str]) -> tuple[list[str], list[str]]:
             rest.append(arg)
         i += 1
     return flags, rest
+
+
+# Hydra's own options; any other `--name` is a setting typed as an option.
+_HYDRA_FLAGS = {"-h", "--help", "-m", "--multirun", "--resolve", "--hydra-help", "--version", "-r", "--run"} | _VALUED
+
+
+def check_flags(args: list[str], verb: str = "run") -> None:
+    """Raise a one-line :class:`InputError` for a setting typed as an option (``--n-trials 5``), naming the
+    override to write instead (``n_trials=5``; for ``automl``, ``--budget 5`` -> ``automl.budget_fits=5``)."""
+    i = 0
+    while i < len(args):
+        arg = args[i]
+        name, _, value = arg.partition("=")
+        if arg.startswith("-") and name not in _HYDRA_FLAGS:
+            if not value and i + 1 < len(args) and not args[i + 1].startswith("-") and "=" not in args[i + 1]:
+                value = args[i + 1]
+            key = _setting(name.lstrip("-").replace("-", "_"), verb)
+            raise InputError(f"{arg}: thermodrift {verb} takes settings as KEY=VALUE overrides, not as options",
+                             hint=f"write {key}={value or '<value>'}" if key else f"see thermodrift {verb} --help")
+        i += 2 if arg in _VALUED else 1
+
+
+def _setting(word: str, verb: str) -> str | None:
+    """The override key a user meant by ``--word``: a key whose last part is ``word`` or starts with it (automl's
+    settings first for ``automl``), else the closest by spelling."""
+    paths = [k.path for k in keys()] + list(GROUPS)
+    automl = [f"automl.{k}" for k in GROUP_KEYS["automl"]]
+    paths = automl + paths if verb == "automl" else paths + automl
+    for match in (lambda last: last == word, lambda last: last.startswith(word)):
+        found = [p for p in paths if match(p.split(".")[-1])]
+        if found:
+            return found[0]
+    close = _did_you_mean(word, [p.split(".")[-1] for p in paths])
+    return next((p for p in paths if close and close.endswith(f"'{p.split('.')[-1]}'?)")), None)
 
 
 def check_overrides(overrides: list[str], reg: registry.Registry | registry.Listing) -> None:

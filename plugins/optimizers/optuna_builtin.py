@@ -63,7 +63,7 @@ def random(seed: int | None = None) -> optuna.samplers.BaseSampler:
 
 def tpe(seed: int | None = None, n_startup_trials: int = 10, multivariate: bool = True, group: bool = False
         ) -> optuna.samplers.BaseSampler:
-    """Tree-structured Parzen estimator (Optuna 5 defaults: multivariate, constant liar); ``group`` samples each
+    """Tree-structured Parzen estimator (Optuna 5 defaults: multivariate, constant liar). ``group`` samples each
     conditional branch of a space (as AutoML's families) on its own."""
     return TPESampler(seed=seed, n_startup_trials=n_startup_trials, multivariate=multivariate, group=group)
 
