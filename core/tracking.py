@@ -207,7 +207,7 @@ def _log_export_parts(result) -> None:
             mlflow.log_artifacts(str(Path(tmp) / deployment.FALLBACKS), artifact_path=deployment.FALLBACKS)
 
 
-def log_automl(result, config: dict, chosen_label: str) -> None:
+def log_automl(result, config: dict) -> None:
     """Log an :class:`~thermodrift.core.automl.job.AutoMLResult` into the active run (the parent: held-out metrics
     as :func:`log_result` logs them, the leaderboard, the choice) and one child run per family tried."""
     from thermodrift.core.automl import leaderboard, space
@@ -218,7 +218,7 @@ def log_automl(result, config: dict, chosen_label: str) -> None:
                                                             "n_trials")}
     log_result(job, {**params, "model": chosen})  # with the model: limits.json, as `run` logs it
     best = result.search.best
-    mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol, "automl.chosen": chosen_label[:5000],
+    mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol, "automl.chosen": result.describe()[:5000],
                      "automl.family": best.candidate.family, "automl.stopped_by": result.search.stopped_by})
     failed = int((result.leaderboard["status"] == "failed").sum())
     mlflow.log_metrics({"automl/fits": float(result.search.fits), "automl/candidates": float(len(result.leaderboard)),

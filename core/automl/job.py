@@ -41,6 +41,13 @@ class AutoMLResult:
     study_name: str
     wall_s: float
 
+    def describe(self) -> str:
+        """The chosen pipeline (or the ensemble's weighted members) in words."""
+        ens = self.search.ensemble
+        if ens is None:
+            return space.describe(self.search.best.candidate.params)
+        return " + ".join(f"{w:.2f} × [{space.describe(m)}]" for w, m in zip(ens["weights"], ens["members"]))
+
 
 def study_name(spec: JobSpec, settings: Settings) -> str:
     """Stable name from what defines the search except the budget, so a re-run resumes (a larger budget goes on)."""

@@ -42,11 +42,12 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     verb = argv[0] if argv else ""
     if argv and argv[0] == "automl":  # `thermodrift run automl=default ...`: the same overrides and checks
-        from thermodrift.core.cli import automl as automl_options
         if "-h" in argv[1:] or "--help" in argv[1:]:
-            print(automl_options.help_text())
+            from thermodrift.core.cli import automl as automl_help
+            print(automl_help.help_text())
             return 0
-        argv = ["run", *automl_options.as_run(argv[1:])]
+        from thermodrift.core.cli import run_options
+        argv = ["run", *run_options.automl_overrides(argv[1:])]
     if argv and argv[0] == "run":  # Hydra owns the rest of the command line
         from thermodrift.core import registry, tracking_faults
         from thermodrift.core.cli import run_options

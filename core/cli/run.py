@@ -141,8 +141,33 @@ def _task(cfg: DictConfig) -> float | None:
 
 
 def _automl_job(cfg: DictConfig, spec: JobSpec, multirun: bool) -> float | None:
-    from thermodrift.core.cli import automl  # `thermodrift automl`, or `run automl=default`
-    return automl.job(cfg, spec, multirun, _bad_input)
+    """``thermodrift automl`` (or ``run automl=default``): the search of ``cfg.automl`` for ``spec``'s dataset,
+    split and targets, tracked in MLflow."""
+    from thermodrift.core.automl import job as automl_job
+    from thermodrift.core.automl.search import Settings
+
+    config = OmegaConf.to_container(cfg, resolve=True)
+    try:
+        settings = Settings(**config["automl"])
+    except TypeError as exc:
+        return _bad_input(InputError(f"automl: {exc}"), multirun)
+    name = spec.study_name or automl_job.study_name(spec, settings)
+    dataset = tracking.run_name(spec).split(" · ")[0]
+    tags = {"kind": "automl", "dataset": spec.dataset, "split": spec.split, "ablation": str(config.get("ablation")),
+            "model": "pending", "protocol": "pending", "recording": dataset, resume.STUDY_TAG: name,
+            resume.OWNER_ATTR: resume.owner()}
+    if spec.progress and not sys.stderr.isatty():  # a bar redrawn in a file or a pipe is one long line
+        spec.progress = False
+    with tracking.start_job_run(f"{dataset} · automl · {spec.split}", tags) as run:
+        try:
+            result = automl_job.run(spec, settings, say=error_line)
+        except (InputError, PluginError) as exc:
+            tracking.fail_run(exc)
+            return _bad_input(exc, multirun)
+        tracking.log_automl(result, config)
+        by_horizon = tracking.log_horizons(result.job, config.get("horizons_h") or [])
+    say(automl_report(result, run, cfg.tracking.uri or tracking.DEFAULT_URI, by_horizon))
+    return result.job.valid_rmse
 
 
 def _record_job(study_name: str, value: float | None) -> None:
@@ -255,6 +280,34 @@ def job_report(result, run, uri: str, by_horizon=None) -> str:
                      "model")
     lines.append(f"figures: {run.info.artifact_uri}/{tracking.FIGURES}/")
     lines.append(f"MLflow run {run.info.run_id} at {uri}")
+    return "\n".join(lines)
+
+
+def automl_report(result, run, uri: str, by_horizon=None) -> str:
+    """What a person reads after the search: the leaderboard's top, the choice, held-out metrics beside the
+    baselines, the parent run."""
+    job = result.job
+    board = result.leaderboard
+    show = board[["rank", "trial", "model", "settings", "selector", "features", "status", "inner_score"]
+                 + [c for c in board.columns if c.startswith("fold")]].head(10)
+    table = tracking.comparison(job)[["rmse", "mae", "max_abs_error", "r2"]]
+    for target in job.targets:
+        table[f"rmse {target}"] = [job.summary_metrics(who, target)["rmse"] for who in job.folds[0].metrics]
+    inputs = [c for role in job.spec.input_roles for c in job.recording.columns(role)]
+    lines = [f"\nautoml on {job.spec.dataset} · {job.spec.split}  [{job.protocol} protocol]",
+             f"targets ({job.unit}): {', '.join(job.targets)}",
+             f"inner folds: {'; '.join(f.name for f in result.search.folds)}",
+             f"{len(board)} candidates, {result.search.fits} fits, {int((board['status'] == 'failed').sum())} "
+             f"failed, stopped by {result.search.stopped_by}, {result.wall_s:.0f} s; leaderboard (inner RMSE {job.unit}):",
+             show.to_string(index=False, float_format=lambda v: f"{v:.3f}"),
+             f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} {job.unit}): {result.describe()}",
+             f"held-out ({job.folds[0].name}), {job.unit}, mean over targets:",
+             table.to_string(float_format="%.3f"),
+             *tracking.horizon_lines(by_horizon, job.unit),
+             *([f"mlr baseline: MLR on every input temperature ({len(inputs)}), as in every automl job"]
+               if "mlr" in job.spec.baselines else []),
+             f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",
+             f"MLflow run {run.info.run_id} at {uri}"]
     return "\n".join(lines)
 
 

@@ -151,6 +151,13 @@ def split_flags(args: list[str]) -> tuple[list[str], list[str]]:
 _HYDRA_FLAGS = {"-h", "--help", "-m", "--multirun", "--resolve", "--hydra-help", "--version", "-r", "--run"} | _VALUED
 
 
+def automl_overrides(args: list[str]) -> list[str]:
+    """The ``run`` overrides of ``thermodrift automl args``: ``automl=default`` first unless an automl option is
+    given."""
+    given = any(a.startswith(("automl=", "experiment=automl")) for a in args)
+    return list(args) if given else ["automl=default", *args]
+
+
 def check_flags(args: list[str], verb: str = "run") -> None:
     """Raise a one-line :class:`InputError` for a setting typed as an option (``--n-trials 5``), naming the
     override to write instead (``n_trials=5``; for ``automl``, ``--budget 5`` -> ``automl.budget_fits=5``)."""
