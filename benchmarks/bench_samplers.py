@@ -559,14 +559,12 @@ def config_from(args: argparse.Namespace) -> Config:
                 "gp_domain_seeds": 2 if quick else 4}
     value = {k: getattr(args, k) if getattr(args, k) is not None else v for k, v in defaults.items()}
     config = Config(seeds=value["seeds"], dims=tuple(int(d) for d in str(value["dims"]).split(",")),
-                    budget_mult=value["budget_mult"],
-                    functions=tuple(int(f) for f in str(value["functions"]).split(",")),
+                    budget_mult=value["budget_mult"], functions=tuple(int(f) for f in str(value["functions"]).split(",")),
                     gp_budget=value["gp_budget"], gp_seeds=min(value["gp_seeds"], value["seeds"]),
                     gp_dims=tuple(int(d) for d in str(value["gp_dims"]).split(",")),
                     domain_budget=value["domain_budget"], domain_seeds=value["domain_seeds"],
                     paired_domain_seeds=value["paired_domain_seeds"], gp_domain_budget=value["gp_domain_budget"],
-                    gp_domain_seeds=value["gp_domain_seeds"],
-                    domain_epochs=5 if quick else DOMAIN_EPOCHS,
+                    gp_domain_seeds=value["gp_domain_seeds"], domain_epochs=5 if quick else DOMAIN_EPOCHS,
                     overhead_sizes=(4, 8) if quick else (100, 1000), workers=args.workers,
                     parts=tuple(args.parts.split(",")))
     if not config.parts or set(config.parts) - set(PARTS):

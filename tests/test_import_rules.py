@@ -1,6 +1,9 @@
-"""Import rules and the shape of the code: data knows no experiment, physics imports neither tracking nor the
-CLI, plugins use only public names of core and of each other, one home for the temperature roles, no module over
-600 lines. Read from the source (every import, also those inside functions), so nothing needs importing."""
+"""Import rules and the shape of the code, over the whole package (core, plugins, compensator, the Hydra sweeper):
+the layers of docs/architecture.md (the compensator lowest, importing nothing of core; the CLI on top, imported by
+nothing), which third-party stacks each layer may import, data knows no experiment, physics imports neither tracking
+nor the CLI, plugins use only public names of core and of each other, one home for the temperature roles, no module
+over 600 lines (benchmarks included). Read from the source (every import, also those inside functions), so nothing
+needs importing."""
 
 from __future__ import annotations
 
@@ -95,7 +98,120 @@ def test_the_temperature_roles_have_one_home(folder):
     assert homes == (["core/recording/types.py"] if folder == "core" else [])
 
 
-def test_no_module_in_core_or_plugins_is_over_600_lines():
-    long = {str(p.relative_to(REPO)): n for folder in ("core", "plugins") for p in _modules(folder)
-            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+def test_no_module_is_over_600_lines():
+    long = {str(p.relative_to(REPO)): n for folder in ("core", "plugins", "compensator", "benchmarks")
+            for p in _modules(folder) if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
     assert long == {}
+
+
+# ------------------------------------------------------------------------------------------------ the layers
+# Source folder -> import name (pyproject.toml's package-dir), most specific first.
+PACKAGES = [("core/testing", "thermodrift.testing"), ("core/optimizers", "thermodrift.optimizers"),
+            ("core", "thermodrift.core"), ("plugins/hydra_sweeper", "hydra_plugins.thermodrift_sweeper"),
+            ("plugins", "thermodrift.plugins"), ("compensator", "thermodrift.compensator")]
+# Layer -> the module prefixes it holds; a module of ``thermodrift.core`` named by none is in ``foundation``.
+LAYERS = {
+    "compensator": ("thermodrift.compensator",),
+    "physics": ("thermodrift.core.physics",),
+    "experiment": ("thermodrift.core.splits", "thermodrift.core.study", "thermodrift.core.automl",
+                   "thermodrift.core.horizons", "thermodrift.core.compensation", "thermodrift.core.deployment"),
+    "tracking": ("thermodrift.core.tracking", "thermodrift.core.report"),
+    "testing": ("thermodrift.testing",),
+    "plugins": ("thermodrift.plugins", "hydra_plugins.thermodrift_sweeper"),
+    "cli": ("thermodrift.core.cli",),
+    "foundation": ("thermodrift.core", "thermodrift.optimizers"),
+}
+# Layer -> the layers its modules may import (besides their own); the compensator, the lowest, any layer may.
+MAY_IMPORT = {
+    "compensator": set(),
+    "foundation": {"compensator"},
+    "physics": {"foundation", "compensator"},
+    "experiment": {"foundation", "physics", "compensator"},
+    "tracking": {"foundation", "physics", "experiment", "compensator"},
+    "testing": {"foundation", "physics", "experiment", "compensator"},
+    "plugins": {"foundation", "physics", "compensator"},
+    "cli": {"foundation", "physics", "experiment", "tracking", "compensator"},
+}
+# Third-party stacks and the only modules that may import them.
+STACKS = {
+    "mlflow": ("thermodrift.core.tracking", "thermodrift.core.tracking_faults", "thermodrift.core.artifacts",
+               "thermodrift.core.report"),
+    "hydra": ("thermodrift.core.cli", "thermodrift.core.configs", "thermodrift.core.tracking",
+              "thermodrift.testing.config_checks", "hydra_plugins.thermodrift_sweeper"),
+    "omegaconf": ("thermodrift.core.cli", "thermodrift.core.configs", "thermodrift.testing.config_checks",
+                  "hydra_plugins.thermodrift_sweeper"),
+}
+
+
+def _package_modules() -> dict[str, Path]:
+    out = {}
+    for folder in ("core", "plugins", "compensator"):
+        for path in _modules(folder):
+            rel = str(path.relative_to(REPO).with_suffix(""))
+            src, name = next((s, n) for s, n in PACKAGES if rel == s or rel.startswith(s + "/"))
+            out[".".join([name, *rel[len(src):].strip("/").split("/")]).strip(".").removesuffix(".__init__")] = path
+    return out
+
+
+def _layer(module: str) -> str | None:
+    for layer, prefixes in LAYERS.items():
+        if any(module == p or module.startswith(p + ".") for p in prefixes):
+            return layer
+    return None
+
+
+def _package_imports(path: Path, module: str) -> list[str]:
+    """Every module ``path`` imports, relative imports resolved against its import name ``module``."""
+    package = module.split(".") if path.name == "__init__.py" else module.split(".")[:-1]
+    out = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            name = ".".join([*base, *([node.module] if node.module else [])])
+            out += [f"{name}.{a.name}" for a in node.names] if node.level or name in ("thermodrift.core",) else [name]
+    return out
+
+
+def test_every_module_of_the_package_is_in_a_layer():
+    modules = _package_modules()
+    assert len(modules) > 150 and all(_layer(m) for m in modules)
+    assert {_layer(m) for m in modules} == set(MAY_IMPORT)
+
+
+def test_each_layer_imports_only_the_layers_below_it():
+    """The compensator imports nothing of core; nothing but the CLI imports the CLI; plugins reach the experiment
+    and tracking layers only through the registry (``thermodrift.testing.data``, the tiny recording, aside)."""
+    modules = _package_modules()
+    bad = []
+    for module, path in modules.items():
+        layer = _layer(module)
+        for imported in _package_imports(path, module):
+            if not imported.startswith(("thermodrift", "hydra_plugins.thermodrift_sweeper")):
+                continue
+            target = _layer(imported)
+            if target in (None, layer) or target in MAY_IMPORT[layer]:
+                continue
+            if layer == "plugins" and imported.startswith("thermodrift.testing.data"):
+                continue
+            bad.append(f"{path.relative_to(REPO)} ({layer}) imports {imported} ({target})")
+    assert bad == []
+
+
+@pytest.mark.parametrize("stack", sorted(STACKS))
+def test_each_third_party_stack_has_its_few_homes(stack):
+    bad = [f"{p.relative_to(REPO)} imports {m}" for module, p in _package_modules().items()
+           for m in _package_imports(p, module)
+           if (m == stack or m.startswith(stack + ".")) and not any(module == h or module.startswith(h + ".")
+                                                                     for h in STACKS[stack])]
+    assert bad == []
+
+
+def test_the_compensator_runs_on_numpy_alone():
+    """What a controller loads: numpy (scipy for physics, torch for networks), nothing of the training stack;
+    pandas only where ``compensate`` reads a Parquet or XLSX input table."""
+    training_stack = ("thermodrift.core", "thermodrift.plugins", "thermodrift.testing", "optuna", "mlflow", "hydra",
+                      "omegaconf", "sklearn", "pluggy")
+    assert _offenders("compensator", training_stack) == []
+    assert [o for o in _offenders("compensator", ("pandas",)) if not o.startswith("compensator/stream.py")] == []

@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from thermodrift.core.metrics import rms, rmse
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.diagnose import Diagnosis, check_input, final_cut, sim_forms
 from thermodrift.core.physics.diagnose.simulation_table import align
@@ -487,8 +488,8 @@ def _finding(p: Problem, t: Tested, null_sse: np.ndarray) -> dict[str, Any]:
     where = _where(p, t)
     final = ~p.fit_rows
     base = _baseline(p)
-    before = {p.channels[j]: float(np.sqrt(np.mean((p.measured[final, j] - base[final, j]) ** 2))) for j in t.judged}
-    after = {p.channels[j]: float(np.sqrt(np.mean((p.measured[final, j] - t.fitted[final, j]) ** 2)))
+    before = {p.channels[j]: float(rmse(p.measured[final, j], base[final, j])) for j in t.judged}
+    after = {p.channels[j]: float(rmse(p.measured[final, j], t.fitted[final, j]))
              for j in t.judged}
     improved = int((t.fold_gain > 0).sum())
     fit = "; ".join(f"{c} {before[c]:.3g} → {after[c]:.3g}" for c in before)
@@ -520,8 +521,8 @@ def _adequacy(p: Problem, base: np.ndarray, null_sse: np.ndarray, tested: list[T
         if p.kinds[j] != "displacement":
             continue
         r = (p.measured[:, j] - base[:, j])
-        fit_rmse = float(np.sqrt(np.mean(r[p.fit_rows] ** 2)))
-        val = float(np.sqrt(np.mean(r[final] ** 2)))
+        fit_rmse = float(rms(r[p.fit_rows]))
+        val = float(rms(r[final]))
         rf = r[p.fit_rows] - r[p.fit_rows].mean()
         chans[c] = {"rmse_um": fit_rmse, "noise_um": float(p.sigma[j]),
                     "misfit_over_noise": fit_rmse / float(p.sigma[j]), "validation_rmse_um": val,
