@@ -11,6 +11,7 @@ from ``(seed, trial number)``; a resumed study draws new points too instead of r
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -35,7 +36,9 @@ class _WorkerStreams:
             if seed is not None and trial.number > 0:  # another worker (or an earlier run) started the study
                 stream = int(np.random.SeedSequence([seed, trial.number]).generate_state(1)[0])
                 studies = self._studies
-                super().__init__(seed=stream, **params)  # the sampler afresh on its own stream
+                with warnings.catch_warnings():  # an experimental argument (TPE's group) was warned about once
+                    warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                    super().__init__(seed=stream, **params)  # the sampler afresh on its own stream
                 self._studies = studies
         super().before_trial(study, trial)
 
