@@ -405,7 +405,7 @@ def figures(result) -> dict[str, Any]:
     fold = result.folds[-1]
     hours = fold.time_s / 3600.0
     k = fold.y_true.shape[1]
-    title = f"{run_name(result.spec)} — {fold.name if 'held out' in fold.name else f'held out: {fold.name}'}"
+    title = f"{run_name(result.spec)} — {held_out(fold.name)}"
     styles = {who: _STYLES.get(who, _OTHER[i % len(_OTHER)]) for i, who in enumerate(fold.predictions)}
 
     def error_unit(col: str) -> str:  # µm for a displacement, K for a temperature
@@ -516,6 +516,11 @@ class SweepRun(Callback):
               + report.format_table(report.runs_table(children))
               + "".join(f"\n{line}" for line in report.best_job_lines(ranked))
               + f"\nparent MLflow run {parent} at {config.tracking.uri or DEFAULT_URI}", flush=True)
+
+
+def held_out(fold_name: str) -> str:
+    """A fold's name as the held-out part: ``held out: <name>`` unless the name says so already."""
+    return fold_name if "held out" in fold_name else f"held out: {fold_name}"
 
 
 def _label(result, who: str) -> str:

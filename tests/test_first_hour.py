@@ -64,6 +64,7 @@ def test_the_job_report_says_which_inputs_its_mlr_baseline_reads():
     run = SimpleNamespace(info=SimpleNamespace(artifact_uri="file:///a", run_id="r"))
     text = job_report(result, run, "sqlite:///mlflow.db")
     assert f"mlr baseline: MLR on the {len(result.selected)} selected sensors" in text
+    assert f"held-out ({result.folds[0].name.removeprefix('held out: ')})" in text and "held out" not in text
 
 
 def test_the_automl_note_numbers_the_trial_as_the_leaderboard_shows_it():

@@ -264,7 +264,8 @@ def job_report(result, run, uri: str, by_horizon=None) -> str:
              f"targets ({result.unit}): {', '.join(result.targets)}",
              f"selected sensors{' (last fold)' if len(result.folds) > 1 else ''}: {', '.join(result.selected)}",
              f"model {result.spec.model} {tuned}",
-             f"held-out ({'; '.join(f.name for f in result.folds)}), {result.unit}, mean over "
+             f"held-out ({'; '.join(f.name.removeprefix('held out: ') for f in result.folds)}), {result.unit}, "
+             f"mean over "
              f"{'folds and ' if len(result.folds) > 1 else ''}targets:",
              table.to_string(float_format="%.3f"), *tracking.horizon_lines(by_horizon, result.unit)]
     if "mlr" in result.spec.baselines:
@@ -301,7 +302,7 @@ def automl_report(result, run, uri: str, by_horizon=None) -> str:
              f"failed, stopped by {result.search.stopped_by}, {result.wall_s:.0f} s; leaderboard (inner RMSE {job.unit}):",
              show.to_string(index=False, float_format=lambda v: f"{v:.3f}"),
              f"chosen ({job.spec.model}, inner score {job.valid_rmse:.3f} {job.unit}): {result.describe()}",
-             f"held-out ({job.folds[0].name}), {job.unit}, mean over targets:",
+             f"held-out ({job.folds[0].name.removeprefix('held out: ')}), {job.unit}, mean over targets:",
              table.to_string(float_format="%.3f"),
              *tracking.horizon_lines(by_horizon, job.unit),
              *([f"mlr baseline: MLR on every input temperature ({len(inputs)}), as in every automl job"]
