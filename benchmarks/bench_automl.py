@@ -38,6 +38,7 @@ Run::
         [--budgets FITS ...] [--hindsight-trials N]
     python benchmarks/bench_automl.py --inner-table [--inner-tpe] --tasks NAME ...   # every candidate, held out too
     python benchmarks/bench_automl.py --rules --tasks NAME ...   # final-choice rules replayed on those predictions
+    python benchmarks/bench_automl.py --buildings [--greybox-json FILE]   # the houses: automl, FLAML, grey-box
 
 ``--budgets`` replaces the set's budgets (the default budget is always run), ``--hindsight-trials`` its TPE
 trials per family for the hindsight best and ``--hindsight-families`` the families tried for it, so a piece of
@@ -463,7 +464,20 @@ def main() -> None:
     parser.add_argument("--rules", action="store_true",
                         help="instead: the held-out RMSE of final-choice rules from the --inner-table --inner-tpe "
                              "predictions in --cache")
+    parser.add_argument("--buildings", action="store_true",
+                        help="instead: the three real houses, automl against FLAML and the stochastic grey-box, one "
+                             "step and 24 h ahead (benchmarks/automl_buildings.py)")
+    parser.add_argument("--houses", type=int, nargs="*", help="with --buildings: only these houses (1, 2, 3)")
+    parser.add_argument("--building-budget", type=int, default=24, help="with --buildings: automl's fits")
+    parser.add_argument("--building-families", nargs="*", help="with --buildings: the families searched")
+    parser.add_argument("--greybox-json", help="with --buildings: bench_greybox.py --houses --json, shown beside")
+    parser.add_argument("--building-json", help="with --buildings: write the rows here")
     args = parser.parse_args()
+    if args.buildings:
+        import automl_buildings
+
+        automl_buildings.main(args)
+        return
     if args.tasks:
         args.tasks = [n for t in args.tasks for n in GROUPS.get(t, [t])]
     if args.inner_table:

@@ -29,7 +29,7 @@ Run::
     python benchmarks/bench_greybox.py                     # 4 cases per simulator, under 10 min on 2 cores
     python benchmarks/bench_greybox.py --cases 24          # every structure once per simulator
     python benchmarks/bench_greybox.py --sealed --cases 24 # the sealed half, once
-    python benchmarks/bench_greybox.py --houses --cases 0  # the three real houses only
+    python benchmarks/bench_greybox.py --houses --cases 0  # the three real houses only (--houses 2: house 2)
 
 ``--json FILE`` writes every case. Times are wall times on a shared machine: noisy.
 """
@@ -179,7 +179,8 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", type=int, default=4, help="simulated houses per simulator")
     ap.add_argument("--sealed", action="store_true", help="the sealed seed half (run once, at the end)")
     ap.add_argument("--sims", nargs="+", default=["independent", "engine"], choices=["independent", "engine"])
-    ap.add_argument("--houses", action="store_true", help="also the three real houses (24 h, last 14 days)")
+    ap.add_argument("--houses", nargs="*", type=int, choices=(1, 2, 3),
+                    help="also the real houses (all three without numbers; 24 h ahead on the last 14 days)")
     ap.add_argument("--buildings", type=Path,
                     default=Path(os.environ.get("THERMODRIFT_BUILDINGS", "../shared/data/buildings")))
     ap.add_argument("--json", type=Path, help="write every case here")
@@ -201,8 +202,8 @@ def main(argv=None) -> int:
                   f"{100 * s['coverage_identifiable']:6.1f}% of {s['n_identifiable']:3d} "
                   f"{100 * s['htc_within_10pct']:7.0f}%")
         print("targets: recovered >= 90 %, 95 % intervals cover 90-98 %, HTC within 10 % on >= 90 %")
-    if args.houses:
-        houses = [real_house(args.buildings / f"blg_{k}.csv", 0, log) for k in (1, 2, 3)]
+    if args.houses is not None:
+        houses = [real_house(args.buildings / f"blg_{k}.csv", 0, log) for k in (args.houses or (1, 2, 3))]
         result["houses"] = houses
         print(f"\n{'house':7s} {'selected':16s} {'24 h RMSE sel':>13s} {'24 h RMSE Ti':>12s} {'ratio':>6s} "
               f"{'1-step sel':>10s} {'1-step Ti':>9s}")
