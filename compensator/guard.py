@@ -94,6 +94,20 @@ class Compensator:
         self.probes = sorted(probes or [])
         self._next_probe = 0
 
+    def new_run(self) -> None:
+        """Start a new independent run (a cold start, e.g. the next working day): the model's state, the input
+        checks' memory, the last written value and the probe bias start afresh, as in a new compensator."""
+        ins, tg = self.package.inputs, self.package.targets
+        self.model = self.package.runtime.streamer()
+        self._fb = None
+        self.buffer.clear()
+        self.last_good = np.array([(self.package.limits["inputs"][c]["min"] + self.package.limits["inputs"][c]["max"])
+                                   / 2 for c in ins])
+        self.jump_allow, self.any_bad, self.prev_values = self.jump.copy(), False, None
+        self.same, self.t_prev, self.prev_written = np.zeros(len(ins)), None, None
+        if self.bias is not None:
+            self.bias = BiasFilter(len(tg), **self.package.probe)
+
     # --------------------------------------------------------------------------------------------- checks
     def check(self, values: np.ndarray) -> np.ndarray | None:
         """None when every input passes; else a reason code per input: 0 good, 1 missing, 2 out of range,

@@ -50,6 +50,38 @@ class Selector(Component):
 
 
 LAG_PREFIX = "lag1:"
+RUN_STARTS = "run_starts_s"  # X.attrs key: times (s) at which the second and later runs of X start
+
+
+def run_slices(X: pd.DataFrame) -> list[slice]:
+    """Row slices of the independent runs in ``X`` (``X.attrs["run_starts_s"]``, times in s); one slice when X
+    holds one run. A model with history computes its filters, states and windows per slice."""
+    starts, n = X.attrs.get(RUN_STARTS) or (), len(X)
+    if not len(starts) or n == 0:
+        return [slice(0, n)]
+    cuts = np.searchsorted(np.asarray(X.index, dtype=float), np.asarray(starts, dtype=float), side="left")
+    edges = sorted({0, n, *(int(c) for c in cuts if 0 < c < n)})
+    return [slice(a, b) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def per_run(X: pd.DataFrame, transform) -> np.ndarray:
+    """``transform(part)`` of each run of ``X`` (see :func:`run_slices`), stacked in row order."""
+    parts = run_slices(X)
+    if len(parts) == 1:
+        return transform(X)
+    return np.concatenate([np.asarray(transform(X.iloc[s])) for s in parts])
+
+
+def same_run(history: pd.DataFrame | None, t0_s: float | None = None) -> pd.DataFrame | None:
+    """The rows of ``history`` in the run that holds time ``t0_s`` (s; default: history's last row's run), by
+    ``history.attrs["run_starts_s"]``: what a model may carry into a prediction that starts at ``t0_s``."""
+    starts = (history.attrs.get(RUN_STARTS) or ()) if history is not None else ()
+    if not len(starts) or not len(history):
+        return history
+    t = np.asarray(history.index, dtype=float)
+    t0 = t[-1] if t0_s is None else float(t0_s)
+    begin = max((s for s in starts if s <= t0), default=-np.inf)
+    return history.iloc[int(np.searchsorted(t, begin, side="left")):]
 
 
 class ThermalModel(RegressorMixin, Component):
@@ -78,17 +110,39 @@ class ThermalModel(RegressorMixin, Component):
     # fitting, on a recording without a channel of each.
     requires_roles: ClassVar[tuple[str, ...]] = ()
     history_length: ClassVar[int | None] = 0
+    sparse_targets: ClassVar[bool] = False  # a model with history that fits on NaN-free target rows itself
 
     def fit(self, X: pd.DataFrame, y: pd.DataFrame) -> "ThermalModel":
+        """Fit on inputs ``X`` and targets ``y`` (µm). A sparse target (NaN between measurements) is fitted on the
+        measured rows: a memoryless model sees only them; a model with history (``sparse_targets``) gets every
+        input row, so its filters and windows run at full rate, and masks its loss."""
         y2 = _as_2d(y)
         self.n_features_in_ = X.shape[1]
         self.feature_names_in_ = np.asarray(X.columns, dtype=object)
         self.target_names_ = list(y.columns) if isinstance(y, pd.DataFrame) else [f"y{i}" for i in range(y2.shape[1])]
+        measured = np.isfinite(y2).all(axis=1)
+        if not measured.all():
+            if measured.sum() < 2:
+                raise ValueError(f"the target is measured in {int(measured.sum())} of {len(y2)} training rows; "
+                                 "at least 2 are needed")
+            if self.history_length == 0:
+                X, y2 = X.iloc[np.flatnonzero(measured)], y2[measured]
+            elif not self.sparse_targets:
+                raise ValueError(f"{type(self).__name__} needs the target measured in every row (the target is "
+                                 f"measured in {int(measured.sum())} of {len(y2)} rows)")
         self._fit(X, y2)
         return self
 
     def predict(self, X: pd.DataFrame, history: pd.DataFrame | None = None) -> np.ndarray:
-        """Displacements (µm), shape (len(X), n_targets); ``history``: the input rows before ``X``."""
+        """Displacements (µm), shape (len(X), n_targets); ``history``: the input rows before ``X``. Each run of
+        ``X`` (:func:`run_slices`) starts afresh; ``history`` counts only where it is in the first one's run."""
+        if self.history_length != 0:
+            parts = run_slices(X)
+            if len(parts) > 1:
+                return np.concatenate([self.predict(X.iloc[s], history if k == 0 else None)
+                                       for k, s in enumerate(parts)])
+            if history is not None and len(X):
+                history = same_run(history, float(X.index[0]))
         past = self._relevant_history(history)
         if past is None or not len(past):
             return np.asarray(self._predict(X), dtype=float).reshape(len(X), -1)
@@ -130,7 +184,7 @@ class Streamer:
     def __init__(self, model: ThermalModel, history: pd.DataFrame | None = None):
         self.model = model
         self.columns = list(model.feature_names_in_)
-        past = model._relevant_history(history)
+        past = model._relevant_history(same_run(history))
         self._rows = [] if past is None else [r for r in past[self.columns].to_numpy(dtype=float)]
         self._times = [] if past is None else [float(t) for t in past.index]
         self._attrs = dict(history.attrs) if history is not None else {}

@@ -13,6 +13,8 @@ import time
 import numpy as np
 import pandas as pd
 
+from thermodrift.core.components import same_run
+
 STREAM_ROWS = 100  # rows streamed one per call; enough for a stable mean, cheap for every model
 
 
@@ -43,7 +45,7 @@ def measure(model, frame: pd.DataFrame, rows: np.ndarray, train_seconds: float,
     history), ``latency_stream_ms`` (per ``update`` over up to ``stream_rows`` rows of that block) and
     ``n_parameters``."""
     block = np.split(rows, np.flatnonzero(np.diff(rows) != 1) + 1)[0] if len(rows) else rows
-    history = frame.iloc[:int(block[0])] if len(block) else frame.iloc[:0]
+    history = same_run(frame.iloc[:int(block[0])], float(frame.index[block[0]])) if len(block) else frame.iloc[:0]
     start = time.perf_counter()
     model.predict(frame.iloc[block], history=history)
     batch_ms = (time.perf_counter() - start) * 1e3 / max(1, len(block))

@@ -25,11 +25,17 @@ def rmse(y_true, y_pred, axis: int | None = None):
 
 
 def channel_metrics(y_true_um: np.ndarray, y_pred_um: np.ndarray) -> dict[str, float]:
-    """All metrics of one displacement channel (1-D arrays in µm)."""
+    """All metrics of one displacement channel (1-D arrays in µm), on the rows where it was measured (a sparse
+    drift is NaN between measurements)."""
     y = np.asarray(y_true_um, dtype=float).ravel()
     p = np.asarray(y_pred_um, dtype=float).ravel()
     if y.shape != p.shape or y.size == 0:
         raise ValueError(f"need equal, non-empty shapes, got {y.shape} and {p.shape}")
+    measured = ~np.isnan(y)
+    if not measured.all():
+        if not measured.any():
+            raise ValueError("the channel is not measured in any of the rows scored")
+        y, p = y[measured], p[measured]
     e = y - p
     abs_e = np.abs(e)
     var_y = float(np.var(y))

@@ -168,6 +168,61 @@ class ForwardChaining(Split):
         return out
 
 
+class RunHoldout(Split):
+    """Hold out whole runs (independent recordings: files, sheets or blocks of a ``run`` column).
+
+    ``test_runs``: run names, or substrings matched against them; default the last run. ``train_on``:
+    ``"others"`` (every other run: runs are independent, each a cold start) or ``"before"`` (only runs that
+    precede the first held-out one in time).
+    """
+
+    def __init__(self, test_runs: list[str] | None = None, train_on: str = "others"):
+        if train_on not in ("before", "others"):
+            raise InputError(f"split.train_on must be 'before' or 'others', got {train_on!r}")
+        self.test_runs = list(test_runs) if test_runs else None
+        self.train_on = train_on
+
+    def folds(self, recording) -> list[Fold]:
+        runs, order = _runs(recording, 2, "split=chronological")
+        wanted = self.test_runs or [order[-1]]
+        held = [r for r in order if any(str(w) == r for w in wanted)] or \
+            [r for r in order if any(str(w) in r for w in wanted)]
+        if not held:
+            raise InputError(f"split.test_runs {wanted} match none of the runs {order}")
+        test = np.isin(runs, held)
+        train = ~test if self.train_on == "others" else np.arange(len(runs)) < np.flatnonzero(test)[0]
+        return [_fold(np.flatnonzero(train), np.flatnonzero(test), f"held out: run {', '.join(held)}")]
+
+
+class LeaveOneRunOut(Split):
+    """One fold per run: train on every other run, test on it (runs are independent cold starts)."""
+
+    def folds(self, recording) -> list[Fold]:
+        runs, order = _runs(recording, 2, "split=chronological")
+        return [_fold(np.flatnonzero(runs != r), np.flatnonzero(runs == r), f"run {r} left out") for r in order]
+
+
+class RunForwardChaining(Split):
+    """Expanding-window folds over runs in time order: train on runs 1..k, test on run k+1."""
+
+    def __init__(self, min_train_runs: int = 1):
+        self.min_train_runs = min_train_runs
+
+    def folds(self, recording) -> list[Fold]:
+        runs, order = _runs(recording, self.min_train_runs + 1, "split=chronological")
+        return [_fold(np.flatnonzero(np.isin(runs, order[:k])), np.flatnonzero(runs == order[k]),
+                      f"fold {k}: run {order[k]} from the runs before") for k in range(self.min_train_runs, len(order))]
+
+
+def _runs(recording, at_least: int, instead: str) -> tuple[np.ndarray, list[str]]:
+    runs = recording.runs().to_numpy()
+    order = list(dict.fromkeys(runs))
+    if len(order) < at_least:
+        raise InputError(f"{recording.source}: this split needs at least {at_least} runs, found {len(order)}",
+                         hint=f"load several tables (or a 'run:' column) as runs, or use {instead}")
+    return runs, order
+
+
 class Shuffled(Split):
     """PAPER PROTOCOL (leaky): a random row split, only to reproduce published numbers. Warns when used."""
 
@@ -239,7 +294,8 @@ class PaperSession(Split):
 
 
 SPLITS = {"chronological": Chronological, "condition_holdout": ConditionHoldout, "time_window": TimeWindow,
-          "forward_chaining": ForwardChaining, "shuffled": Shuffled, "paper_session": PaperSession}
+          "forward_chaining": ForwardChaining, "shuffled": Shuffled, "paper_session": PaperSession,
+          "run_holdout": RunHoldout, "leave_one_run_out": LeaveOneRunOut, "run_forward_chaining": RunForwardChaining}
 
 
 def make_split(kind: str, seed: int | None = None, **params) -> Split:

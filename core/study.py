@@ -37,7 +37,7 @@ import pandas as pd
 from thermodrift.core import efficiency, registry, resume, schema, search_space, splits, trial_faults, training
 from thermodrift.core.errors import InputError
 from thermodrift.core.metrics import evaluate
-from thermodrift.core.components import LAG_PREFIX
+from thermodrift.core.components import LAG_PREFIX, RUN_STARTS
 from thermodrift.core.recording import INPUT_ROLES, TARGET_ROLES  # what a model reads (°C, W/m², W) and predicts
 
 SELECTOR_PREFIX = "selector."  # Optuna parameter names of the selector's search space
@@ -480,11 +480,13 @@ def model_inputs(recording, selected: list[str], model_cls, targets: list[str], 
              if c not in selected and c not in targets]
     parts = [X, recording.data[extra]] if extra else [X]
     if getattr(model_cls, "uses_target_history", False):
-        parts.append(recording.data[targets].shift(lag).bfill().add_prefix(LAG_PREFIX))
+        parts.append(recording.data[targets].shift(lag).ffill().bfill().add_prefix(LAG_PREFIX))
     out = pd.concat(parts, axis=1) if len(parts) > 1 else X.copy()
     # Each column's role travels with the frame (and its row slices), so models need not guess from names.
     out.attrs["roles"] = {c: recording.channels[c].role if c in recording.channels else "target_history"
                           for c in out.columns}
+    if recording.run_starts_s:  # several runs: models with history start each afresh
+        out.attrs[RUN_STARTS] = list(recording.run_starts_s)
     return out
 
 

@@ -478,6 +478,9 @@ class TorchThermalModel(ThermalModel):
 
     def _fit(self, X: pd.DataFrame, y: np.ndarray) -> None:
         inputs = self._inputs(X)
+        measured = np.isfinite(y).all(axis=1)
+        if not measured.all():  # a sparse target (sequence models): inputs at full rate, trained where measured
+            inputs, y = inputs[measured], y[measured]
         result = train(lambda: self._build(inputs.shape[-1], y.shape[1]), inputs, y, self.trainer_settings(),
                        random_state=self.random_state)
         self.state_dict_ = result.state_dict

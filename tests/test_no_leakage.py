@@ -43,7 +43,22 @@ HONEST = {
     "condition_holdout/others": {"test_conditions": ["c02"], "train_on": "others"},
     "time_window": {"train_end_h": 3.0, "test_start_h": 3.0, "test_end_h": 4.0},
     "forward_chaining": {},
+    "run_holdout": {"test_runs": ["r1"]},
+    "leave_one_run_out": {},
+    "run_forward_chaining": {},
 }
+RUN_SPLITS = ("run_holdout", "leave_one_run_out", "run_forward_chaining")
+
+
+def three_runs():
+    """Three tiny recordings as independent runs r0, r1, r2 (the run splits need several)."""
+    import pandas as pd
+
+    from thermodrift.core.recording import Recording
+
+    parts = [tiny_recording(seed=s).data for s in range(3)]
+    data = pd.concat([p.set_axis(p.index + 1e5 * k, axis=0) for k, p in enumerate(parts)])
+    return Recording(data, tiny_recording(0).channels, runs=[f"r{k}" for k, p in enumerate(parts) for _ in p.index])
 
 
 def test_every_honest_split_kind_is_covered():
@@ -63,8 +78,8 @@ def reg(monkeypatch):
 
 @pytest.mark.parametrize("case", list(HONEST))
 def test_no_test_row_reaches_selection_tuning_or_refit(reg, case):
-    rec = tiny_recording(seed=0)
     kind, params = case.split("/")[0], HONEST[case]
+    rec = three_runs() if kind in RUN_SPLITS else tiny_recording(seed=0)
     spec = JobSpec(dataset="tiny", model="recording_mlr", selector="recording_top_k", optimizer="random",
                    split=kind, split_params=params, n_trials=3, storage=None, progress=False,
                    selector_search_space={})  # one selection per fold; joint tuning: tests/test_model_history.py

@@ -7,6 +7,10 @@ later condition predicted from the earlier ones). A training part with a single 
 model never sees a row of its future: its history is the unbroken run of training rows just before the
 validation block (inputs only).
 
+A training part of several runs (independent recordings, each a cold start) is validated by run instead: its
+runs, in time order, are cut into ``max_folds`` contiguous groups, and fold k validates group k with a model
+fitted on every other training run, so every training run is validated once, not only the last ones.
+
 :func:`aggregate` turns per-fold RMSEs into one score in which a pipeline good on every fold beats one best on
 one fold: the mean of the fold RMSEs plus their worst, halved.
 """
@@ -24,6 +28,18 @@ MIN_SHARE = 0.05  # a condition with fewer of the training rows is merged into i
 def inner_folds(recording, train: np.ndarray, max_folds: int = 3, n_blocks: int = 4) -> list[splits.Fold]:
     """Forward-chaining folds (row positions into ``recording``) inside the outer training rows ``train``."""
     train = np.asarray(train)
+    runs = recording.runs().to_numpy()[train]
+    order = list(dict.fromkeys(runs))
+    if len(order) >= 2:
+        groups = [g for g in np.array_split(np.asarray(order, dtype=object), min(max_folds, len(order))) if len(g)]
+        folds = []
+        for group in groups:
+            held = np.isin(runs, group)
+            if np.count_nonzero(~held) >= 2:
+                folds.append(splits.Fold(train[~held], train[held], f"inner: run {', '.join(group)} from the "
+                                         "other training runs"))
+        if folds:
+            return folds
     labels = recording.conditions().to_numpy()[train]
     order = [c for c in dict.fromkeys(labels) if np.count_nonzero(labels == c) >= MIN_SHARE * len(labels)]
     folds = []

@@ -13,7 +13,8 @@ A manifest names the time column and gives every used column a role and a unit::
 naming the file, the column and the row. Row numbers are those a user sees in a spreadsheet or a text editor:
 the header is row 1, the first data row is row 2. Isolated missing values (at most ``MAX_NAN_RUN`` in a row)
 are interpolated linearly in time (at either end of the table: the nearest value) and noted; longer gaps are
-errors. Columns the manifest does not name are ignored with a note in :attr:`Recording.notes`.
+errors, except in a displacement channel: a drift measured now and then (NaN between measurements, any spacing)
+stays sparse. Several tables, sheets (``sheet: all``) or blocks of a ``run:`` column are independent runs. Columns the manifest does not name are ignored with a note in :attr:`Recording.notes`.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 import pandas as pd
@@ -34,6 +35,7 @@ import yaml
 
 from thermodrift.core.recording import file_checks
 from thermodrift.core.errors import InputError
+from thermodrift.core.recording import runs
 from thermodrift.core.recording.types import ROLES, TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording
 
 # Per role: canonical unit and accepted units as (scale, offset) with canonical = value * scale + offset.
@@ -55,7 +57,7 @@ UNITS: dict[str, tuple[str, dict[str, tuple[float, float]]]] = {
 }
 UNITLESS = "1"  # a signal without a physical unit: loaded as it is, canonical unit "1"
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "min": 60.0, "h": 3600.0}
-_MANIFEST_KEYS = ("time", "time_unit", "sheet", "channels", "description")
+_MANIFEST_KEYS = ("time", "time_unit", "sheet", "run", "channels", "description")
 _TABLE_SUFFIXES = (".csv", ".parquet", ".xlsx")
 # Roles whose zero variance means a dead sensor or nothing to learn (a constant speed is one condition).
 _NONCONSTANT_ROLES = ("temperature", "displacement")
@@ -73,72 +75,123 @@ class Manifest:
     path: str
     time: str
     time_unit: str | None
-    sheet: str | None
+    sheet: str | list[str] | None  # a sheet, a list of sheets or "all" (each one run)
     channels: dict[str, tuple[str, str | None, dict[str, Any]]]  # column -> (role, unit, meta)
+    run: str | None = None  # the column whose label blocks are independent runs
 
 
-def load_recording(table_path: str | os.PathLike, manifest_path: str | os.PathLike, *,
-                   require: Iterable[str] = ("temperature", TARGET)) -> Recording:
-    """Read a table and its manifest into a :class:`Recording`; raise :class:`InputError` on bad input.
+def load_recording(table_path: str | os.PathLike | Sequence[str | os.PathLike], manifest_path: str | os.PathLike,
+                   *, require: Iterable[str] = ("temperature", TARGET)) -> Recording:
+    """Read a table (or several) and its manifest into a :class:`Recording`; raise :class:`InputError` on bad input.
 
-    ``require`` lists roles that must have at least one channel, and :data:`TARGET`: something to model (a
-    displacement channel, or else a temperature with at least one other input channel to predict it from).
-    Default: a temperature and a target.
+    ``table_path``: one table, a list of tables or a glob pattern (sorted); each table, each sheet of
+    ``sheet: all`` (or a list of sheets) and each block of the manifest's ``run:`` column is an independent run
+    (see :mod:`~thermodrift.core.recording.runs`). ``require`` lists roles that must have at least one channel,
+    and :data:`TARGET`: something to model (a displacement channel, or else a temperature with at least one other
+    input channel to predict it from). Default: a temperature and a target.
     """
     manifest = read_manifest(manifest_path, tuple(require))
-    table = str(table_path)
-    header, body, sheet_note = _read_table(Path(table_path), manifest.sheet)
+    paths = runs.table_paths(table_path)
+    tables = [(path, sheet) for path in paths for sheet in _sheets(path, manifest.sheet)]
+    pieces = [piece for path, sheet in tables
+              for piece in _load_table(path, sheet, manifest, runs.table_name(path, sheet, tables))]
+    if len(pieces) == 1 and manifest.run is None:
+        piece = pieces[0]
+        frame = pd.DataFrame(piece.data, index=pd.Index(piece.time_s, name=TIME_INDEX))
+        return Recording(frame, piece.channels, source=piece.source, notes=piece.notes)
+    return runs.assemble(pieces)
+
+
+def _sheets(path: Path, sheet: str | list[str] | None) -> list[str | None]:
+    """The sheets of ``path`` to read: the manifest's one, each of a list, or every sheet for ``all``."""
+    if not isinstance(sheet, list) and sheet != runs.ALL_SHEETS:
+        return [sheet]
+    if path.suffix.lower() != ".xlsx" or not path.is_file():
+        return [None]
+    if sheet == runs.ALL_SHEETS:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                with pd.ExcelFile(path, engine="openpyxl") as book:
+                    return [str(s) for s in book.sheet_names]
+            except Exception as exc:  # zipfile, openpyxl and pandas raise different types for a broken file
+                raise InputError(f"not a readable XLSX workbook ({type(exc).__name__})", file=str(path),
+                                 hint="open and save it as .xlsx, or export CSV") from None
+    return [str(s) for s in sheet]
+
+
+def _load_table(path: Path, sheet: str | None, manifest: Manifest, name: str) -> list[runs.Piece]:
+    """The runs of one table (one sheet): one, or one per block of the manifest's ``run`` column."""
+    table = str(path) if sheet is None or not isinstance(manifest.sheet, list) and manifest.sheet != \
+        runs.ALL_SHEETS else f"{path} (sheet {sheet!r})"
+    header, body, sheet_note = _read_table(path, sheet)
     notes = [sheet_note] if sheet_note else []
 
     header = [h.strip() for h in header]
     positions: dict[str, list[int]] = {}
-    for i, name in enumerate(header):
-        positions.setdefault(name, []).append(i)
-    for column in (manifest.time, *manifest.channels):
+    for i, col in enumerate(header):
+        positions.setdefault(col, []).append(i)
+    for column in (manifest.time, *([manifest.run] if manifest.run else []), *manifest.channels):
         _locate(column, positions, header, table, manifest.path)
     if len(body) < MIN_ROWS:
         raise InputError(f"only {len(body)} data rows; at least {MIN_ROWS} are needed", file=table,
                          hint="record longer or check that the whole table was exported")
+    blocks = [(name, 0, len(body))] if manifest.run is None else \
+        runs.blocks(_parse_labels(body[positions[manifest.run][0]], table, manifest.run), table, manifest.run,
+                    name, MIN_ROWS)
 
-    time_s = _parse_time(body[positions[manifest.time][0]], manifest.time_unit, table, manifest.time)
-    _note_time_gaps(time_s, notes)
+    raw_time = body[positions[manifest.time][0]]
+    times = []
+    for _, a, b in blocks:
+        times.append(_parse_time(raw_time.iloc[a:b], manifest.time_unit, table, manifest.time, row0=a + 2))
+        _note_time_gaps(times[-1], notes)
 
     data: dict[str, Any] = {}
     channels: dict[str, Channel] = {}
-    for i, name in enumerate(header):
-        spec = manifest.channels.get(name)
-        if spec is None or spec[0] == "ignore":
+    for i, col in enumerate(header):
+        spec = manifest.channels.get(col)
+        if spec is None or spec[0] == "ignore" or col == manifest.run:
             continue
         role, unit, meta = spec
         raw = body[i]
         if role == "condition":
-            data[name] = _parse_labels(raw, table, name)
-            channels[name] = Channel(name, role, None, meta)
+            data[col] = _parse_labels(raw, table, col)
+            channels[col] = Channel(col, role, None, meta)
             continue
-        values = _parse_numbers(raw, table, name)
-        values, filled = _fill_gaps(values, time_s, table, name)
+        values = _parse_numbers(raw, table, col)
+        parts, filled = [], []
+        for (run, a, b), t in zip(blocks, times):
+            part, rows = _fill_gaps(values[a:b], t, table, col, row0=a + 2, sparse=role == "displacement",
+                                    run=run if manifest.run else None)
+            parts.append(part)
+            filled += [a + r for r in rows]
+        values = np.concatenate(parts)
         if filled:
             rows = ", ".join(str(r + 2) for r in filled[:5]) + (", ..." if len(filled) > 5 else "")
-            notes.append(f"{name}: {len(filled)} missing value(s) interpolated linearly (rows {rows})")
-        if role in _NONCONSTANT_ROLES and np.ptp(values) == 0:
-            raise InputError(f"{role} is constant ({values[0]:g} {unit} in every row)", file=table, column=name,
+            notes.append(f"{col}: {len(filled)} missing value(s) interpolated linearly (rows {rows})")
+        if role == "displacement" and np.isnan(values).any():
+            notes.append(f"{col}: measured in {int(np.isfinite(values).sum())} of {len(values)} rows (sparse: "
+                         "models fit and are scored on the measured rows)")
+        if role in _NONCONSTANT_ROLES and np.nanmax(values) == np.nanmin(values):
+            raise InputError(f"{role} is constant ({values[np.isfinite(values)][0]:g} {unit} in every row)",
+                             file=table, column=col,
                              hint="check the sensor or mark the column role: ignore in the manifest")
         if role == "displacement":
-            _check_displacement_scale(values, unit, table, name, notes)
+            _check_displacement_scale(values, unit, table, col, notes)
         canonical, (scale, offset) = UNITS[role][0] if unit != UNITLESS else UNITLESS, UNITS[role][1][unit]
         if (scale, offset) != (1.0, 0.0):
             values = values * scale + offset
-            notes.append(f"{name}: converted from {unit} to {canonical}")
-        data[name] = values
-        channels[name] = Channel(name, role, canonical, meta)
+            notes.append(f"{col}: converted from {unit} to {canonical}")
+        data[col] = values
+        channels[col] = Channel(col, role, canonical, meta)
 
     unnamed = [h or f"<unnamed column {i + 1}>" for i, h in enumerate(header)
-               if h != manifest.time and h not in manifest.channels]
+               if h != manifest.time and h != manifest.run and h not in manifest.channels]
     if unnamed:
         shown = ", ".join(unnamed[:10]) + (f" and {len(unnamed) - 10} more" if len(unnamed) > 10 else "")
         notes.append(f"ignored {len(unnamed)} column(s) not named in the manifest: {shown}")
-    frame = pd.DataFrame(data, index=pd.Index(time_s, name=TIME_INDEX))
-    return Recording(frame, channels, source=table, notes=notes)
+    return [runs.Piece(run, table, t, {c: v[a:b] for c, v in data.items()}, channels, notes)
+            for (run, a, b), t in zip(blocks, times)]
 
 
 class PlausibilityWarning(UserWarning):
@@ -152,7 +205,7 @@ _UM_LIKE_MM = 5.0      # mm: a larger whole range labelled mm looks like µm
 
 def _check_displacement_scale(values: np.ndarray, unit: str, file: str, column: str, notes: list[str]) -> None:
     """Warn (and note) when a displacement range looks like the other unit; valid files still load."""
-    span = float(np.ptp(values))
+    span = float(np.nanmax(values) - np.nanmin(values))
     if unit != "mm" and span < _MM_LIKE_UM:
         text = (f"{file}: column {column!r}: displacement spans only {span:g} {unit}; thermal drift is usually "
                 f"1 to 500 µm: is it in mm? (then write unit: mm)")
@@ -255,7 +308,13 @@ def read_manifest(path: str | os.PathLike, require: tuple[str, ...]) -> Manifest
         elif not any(r == role for r, _, _ in channels.values()):
             raise InputError(f"no channel has role {role}", file=file,
                              hint=f"give at least one column 'role: {role}' with its unit")
-    return Manifest(file, time_col, time_unit, None if sheet is None else str(sheet), channels)
+    run = None if doc.get("run") is None else str(doc["run"]).strip()
+    if run is not None and (run == time_col or channels.get(run, ("condition",))[0] != "condition"):
+        raise InputError(f"the run column {run!r} is also the time column or a numeric channel", file=file,
+                         column=run, hint="name a column of run labels (it may be the condition column)")
+    sheets = sheet if sheet is None or sheet == runs.ALL_SHEETS else \
+        [str(x) for x in sheet] if isinstance(sheet, list) else str(sheet)
+    return Manifest(file, time_col, time_unit, sheets, channels, run)
 
 
 def _check_target(channels: dict[str, tuple[str, str | None, dict[str, Any]]], file: str) -> None:
@@ -426,15 +485,15 @@ def _blank_to_nan(raw: pd.Series) -> pd.Series:
     return text.mask(blank)
 
 
-def _parse_numbers(raw: pd.Series, file: str, column: str) -> np.ndarray:
+def _parse_numbers(raw: pd.Series, file: str, column: str, row0: int = 2) -> np.ndarray:
     """Float values; NaN where the cell is empty; InputError at the first cell that is not a finite number."""
     raw = _blank_to_nan(raw)
     if pd.api.types.is_bool_dtype(raw):
-        raise InputError("holds true/false values, not numbers", file=file, column=column, row=2)
+        raise InputError("holds true/false values, not numbers", file=file, column=column, row=row0)
     numbers = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float, na_value=np.nan)
     bad = np.flatnonzero(raw.notna().to_numpy() & ~np.isfinite(numbers))
     if len(bad):
-        value, row = raw.iloc[bad[0]], int(bad[0]) + 2
+        value, row = raw.iloc[bad[0]], int(bad[0]) + row0
         if np.isinf(numbers[bad[0]]):
             raise InputError(f"infinite value {_cell_repr(value)}", file=file, column=column, row=row,
                              hint="leave the cell empty if the sample is missing")
@@ -453,18 +512,18 @@ def _parse_labels(raw: pd.Series, file: str, column: str) -> np.ndarray:
     return np.array([_cell_text(v) for v in raw], dtype=object)
 
 
-def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str) -> np.ndarray:
+def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str, row0: int = 2) -> np.ndarray:
     """Times in s: numbers times the unit, or timestamps as seconds since the first row."""
     raw = _blank_to_nan(raw)
     missing = np.flatnonzero(raw.isna().to_numpy())
     if len(missing):
-        raise InputError("missing time value", file=file, column=column, row=int(missing[0]) + 2,
+        raise InputError("missing time value", file=file, column=column, row=int(missing[0]) + row0,
                          hint="every row needs a time")
     if unit is not None and not _is_number(raw.iloc[0]):
         raise InputError(f"'time_unit: {unit}' given but the time column holds {_cell_repr(raw.iloc[0])}",
-                         file=file, column=column, row=2, hint="remove time_unit to read timestamps")
+                         file=file, column=column, row=row0, hint="remove time_unit to read timestamps")
     if unit is not None or _is_number(raw.iloc[0]):
-        seconds = _parse_numbers(raw, file, column) * TIME_UNITS[unit or "s"]
+        seconds = _parse_numbers(raw, file, column, row0) * TIME_UNITS[unit or "s"]
     else:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # pandas warns when it falls back to per-element parsing
@@ -472,7 +531,7 @@ def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str) -> np.
         bad = np.flatnonzero(stamps.isna().to_numpy())
         if len(bad):
             raise InputError(f"unparsable timestamp {_cell_repr(raw.iloc[bad[0]])}", file=file, column=column,
-                             row=int(bad[0]) + 2,
+                             row=int(bad[0]) + row0,
                              hint="use one format like 2024-05-01 12:00:15, or seconds with 'time_unit: s'")
         seconds = (stamps - stamps.iloc[0]).dt.total_seconds().to_numpy(dtype=float)
     step = np.diff(seconds)
@@ -480,10 +539,10 @@ def _parse_time(raw: pd.Series, unit: str | None, file: str, column: str) -> np.
     if len(wrong):
         i = int(wrong[0]) + 1
         if step[i - 1] == 0:
-            raise InputError(f"duplicate time {seconds[i]:g} s (same as row {i + 1})", file=file, column=column,
-                             row=i + 2, hint="remove the repeated row")
+            raise InputError(f"duplicate time {seconds[i]:g} s (same as row {i + row0 - 1})", file=file, column=column,
+                             row=i + row0, hint="remove the repeated row")
         raise InputError(f"time goes backwards ({seconds[i]:g} s after {seconds[i - 1]:g} s)", file=file,
-                         column=column, row=i + 2, hint="sort the table by time or fix the time column")
+                         column=column, row=i + row0, hint="sort the table by time or fix the time column")
     return seconds
 
 
@@ -497,19 +556,28 @@ def _is_number(value: Any) -> bool:
     return True
 
 
-def _fill_gaps(values: np.ndarray, time_s: np.ndarray, file: str, column: str) -> tuple[np.ndarray, list[int]]:
-    """Interpolate runs of at most MAX_NAN_RUN missing samples linearly in time; longer runs are errors."""
+def _fill_gaps(values: np.ndarray, time_s: np.ndarray, file: str, column: str, row0: int = 2,
+               sparse: bool = False, run: str | None = None) -> tuple[np.ndarray, list[int]]:
+    """Interpolate runs of at most MAX_NAN_RUN missing samples linearly in time; longer runs are errors, except
+    in a ``sparse`` channel (a drift measured now and then), which keeps every gap as NaN once one is longer.
+    Row numbers in messages count from ``row0`` (the spreadsheet row of ``values[0]``)."""
     missing = np.isnan(values)
     if not missing.any():
         return values, []
+    where = f" in run {run!r}" if run is not None else ""
+    if missing.all():
+        raise InputError(f"never measured{where} (every cell empty)", file=file, column=column, row=row0,
+                         hint="measure it at least once per run, or leave the run out")
     edges = np.diff(np.r_[0, missing.astype(np.int8), 0])
     starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
     long = np.flatnonzero(ends - starts > MAX_NAN_RUN)
+    if len(long) and sparse:
+        return values, []
     if len(long):
         a, b = int(starts[long[0]]), int(ends[long[0]])
-        raise InputError(f"{b - a} missing values in a row (rows {a + 2} to {b + 1}); at most {MAX_NAN_RUN} "
-                         "consecutive missing samples are interpolated", file=file, column=column, row=a + 2,
-                         hint="fill or cut the gap, or split the recording there")
+        raise InputError(f"{b - a} missing values in a row{where} (rows {a + row0} to {b + row0 - 1}); at most "
+                         f"{MAX_NAN_RUN} consecutive missing samples are interpolated", file=file, column=column,
+                         row=a + row0, hint="fill or cut the gap, or split the recording there")
     filled = values.copy()
     filled[missing] = np.interp(time_s[missing], time_s[~missing], values[~missing])
     return filled, np.flatnonzero(missing).tolist()

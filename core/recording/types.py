@@ -33,6 +33,7 @@ INPUT_ROLES = (*TEMPERATURE_ROLES, *HEAT_INPUT_ROLES)
 TARGET_ROLES = ("displacement", "temperature")
 ERROR_UNITS = {"displacement": "µm", "temperature": "K"}
 TIME_INDEX = "time_s"
+RUN_COLUMN = "run"  # the run column :meth:`Recording.write` adds for a recording of several runs
 
 
 @dataclass(frozen=True)
@@ -50,11 +51,13 @@ class Recording:
 
     ``data`` holds exactly the columns named by ``channels``; its index is time in s (float, named
     ``time_s``) starting where the table starts. ``notes`` records what loading did silently (ignored
-    columns, interpolated samples, irregular sampling).
+    columns, interpolated samples, irregular sampling). ``runs``: one label per row naming the independent
+    recording (run) the row belongs to, each run one contiguous block of rows (None: one run); a model with
+    history starts each run afresh (:meth:`run_starts_s`).
     """
 
     def __init__(self, data: pd.DataFrame, channels: dict[str, Channel], source: str = "<memory>",
-                 notes: Iterable[str] | None = None):
+                 notes: Iterable[str] | None = None, runs: Iterable[Any] | None = None):
         missing = [name for name in channels if name not in data.columns]
         extra = [str(col) for col in data.columns if col not in channels]
         if missing or extra:
@@ -72,6 +75,15 @@ class Recording:
         self.source = source
         self.notes: list[str] = list(notes or [])
         self._labels: pd.Series | None = None
+        self._runs: np.ndarray | None = None
+        if runs is not None:
+            labels = np.array([str(r) for r in runs], dtype=object)
+            if len(labels) != len(self.data):
+                raise ValueError(f"{len(labels)} run labels for {len(self.data)} rows")
+            starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]]) if len(labels) else np.array([], int)
+            if len(set(labels[starts])) != len(starts):
+                raise ValueError("each run must be one contiguous block of rows")
+            self._runs = labels if len(starts) > 1 else None
 
     def __len__(self) -> int:
         return len(self.data)
@@ -139,12 +151,21 @@ class Recording:
 
         Detection (:func:`detect_conditions`): a new condition starts at each change to another nonzero speed
         level; a stop joins the condition before it; leading idle time is ``c00_idle``. Labels look like
-        ``c01_1250rpm``. Without speed or condition channel every sample is ``c01_all``.
+        ``c01_1250rpm``. Without speed or condition channel every sample is ``c01_all``. With several runs and
+        no condition channel, conditions are detected within each run and named ``<run>/<label>`` (without
+        speed: the run's name).
         """
         if self._labels is None:
             cond = self.columns("condition")
             if cond:
                 labels = self.data[cond[0]].astype(str).to_numpy()
+            elif self._runs is not None:  # several runs: conditions detected within each, named after it
+                labels = np.empty(len(self), dtype=object)
+                for run in self.run_names:
+                    rows = self._runs == run
+                    inner = (detect_conditions(self.time_s[rows], self.speed.to_numpy()[rows])
+                             if self.speed is not None else np.full(int(rows.sum()), "", dtype=object))
+                    labels[rows] = [f"{run}/{lab}" if lab else run for lab in inner]
             elif self.speed is not None:
                 labels = detect_conditions(self.time_s, self.speed.to_numpy())
             else:
@@ -166,13 +187,34 @@ class Recording:
         ends = np.r_[t[starts[1:]], t[-1] + step]
         return pd.DataFrame({"label": labels[starts], "start_s": t[starts], "end_s": ends})
 
+    def runs(self) -> pd.Series:
+        """Run label per sample: the independent recordings (files, sheets or a run column) in time order;
+        ``run1`` for every sample of a single recording."""
+        labels = self._runs if self._runs is not None else np.full(len(self), "run1", dtype=object)
+        return pd.Series(labels, index=self.data.index, name="run", dtype=object)
+
+    @property
+    def run_names(self) -> list[str]:
+        """The run labels in time order."""
+        return [str(r) for r in dict.fromkeys(self.runs().to_numpy())]
+
+    @property
+    def run_starts_s(self) -> list[float]:
+        """Times (s) at which the second and later runs start; empty for a single run. Models with history
+        read them (``X.attrs["run_starts_s"]``) and start each run from its own first rows."""
+        if self._runs is None:
+            return []
+        labels = self._runs
+        return [float(t) for t in self.time_s[1:][labels[1:] != labels[:-1]]]
+
     def select(self, rows: Any) -> Recording:
         """The recording restricted to ``rows`` (boolean mask or positions); condition labels are kept."""
         mask = np.asarray(rows)
         if mask.dtype == bool and len(mask) != len(self):
             raise ValueError(f"boolean mask has {len(mask)} entries for {len(self)} rows")
         positions = np.flatnonzero(mask) if mask.dtype == bool else mask.astype(int)
-        sub = Recording(self.data.iloc[positions], self.channels, self.source, self.notes)
+        runs = None if self._runs is None else self._runs[positions]
+        sub = Recording(self.data.iloc[positions], self.channels, self.source, self.notes, runs=runs)
         sub._labels = self.conditions().iloc[positions]
         return sub
 
@@ -180,6 +222,8 @@ class Recording:
         """Write the table (CSV, Parquet or XLSX by suffix; time column ``time_s``) and its manifest (YAML)."""
         table = Path(table_path)
         frame = self.data.reset_index()
+        if self._runs is not None:
+            frame[RUN_COLUMN] = self._runs
         suffix = table.suffix.lower()
         if suffix == ".csv":
             frame.to_csv(table, index=False)
@@ -195,7 +239,8 @@ class Recording:
             ch = self.channels[name]
             spec = {"role": ch.role} if ch.unit is None else {"role": ch.role, "unit": ch.unit}
             channels[str(name)] = {**spec, **ch.meta}
-        manifest = {"time": TIME_INDEX, "channels": channels}
+        manifest = {"time": TIME_INDEX, **({"run": RUN_COLUMN} if self._runs is not None else {}),
+                    "channels": channels}
         text = yaml.safe_dump(manifest, allow_unicode=True, sort_keys=False, default_flow_style=None)
         Path(manifest_path).write_text(f"# manifest for {table.name}\n{text}", encoding="utf-8")
 
@@ -222,6 +267,13 @@ class Recording:
         width = max((len(str(s)) for s in spans["label"]), default=0)
         lines.extend(f"  {row.label:<{width}}  {row.start_s / 3600:8.3f} h to {row.end_s / 3600:8.3f} h"
                      f"  ({row.start_s:g} s to {row.end_s:g} s)" for row in spans.itertuples())
+        if self._runs is not None:
+            lines.append(f"runs ({len(self.run_names)}, each starts afresh):")
+            runs, width = self.runs().to_numpy(), max(len(r) for r in self.run_names)
+            for run in self.run_names:
+                t_run = t[runs == run]
+                lines.append(f"  {run:<{width}}  {len(t_run):6d} rows  {t_run[0] / 3600:8.3f} h to "
+                             f"{t_run[-1] / 3600:8.3f} h")
         if self.notes:
             lines.append("notes:")
             lines.extend(f"  - {note}" for note in self.notes)
@@ -234,5 +286,7 @@ class Recording:
             values = self.data[name]
             return f"{name}: {values.nunique()} labels{meta}"
         values = self.data[name].to_numpy()
-        return f"{name} [{ch.unit}]: {values.min():.4g} to {values.max():.4g}{meta}"
+        measured = np.isfinite(values)
+        sparse = "" if measured.all() else f", measured in {int(measured.sum())} of {len(values)} rows"
+        return f"{name} [{ch.unit}]: {np.nanmin(values):.4g} to {np.nanmax(values):.4g}{meta}{sparse}"
 

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from thermodrift.core.components import Streamer
+from thermodrift.core.components import Streamer, per_run, same_run
 from thermodrift.core.training import (TorchThermalModel, TrainerSettings, predict, resolve_device,
                                        trainer_search_space)
 
@@ -56,14 +56,17 @@ class SequenceModel(TorchThermalModel):
     trainer_defaults = TrainerSettings(lr_max=3e-3, weight_decay=1e-4, epochs=60, batch_size=128, t0=10, t_mult=2,
                                        patience=3, loss="mse")
 
+    sparse_targets = True  # windows over every input row; the trainer keeps the windows of measured rows
+
     @property
     def history_length(self) -> int:  # type: ignore[override]  # depends on the window parameter
         return int(self.window) - 1
 
     def _inputs(self, X: pd.DataFrame) -> np.ndarray:
+        """Windows per row, each run's windows padded with its own first row (none reaches into another run)."""
         if self.window < 1:
             raise ValueError(f"window must be >= 1, got {self.window}")
-        return windows(X.to_numpy(dtype=float), int(self.window))
+        return per_run(X, lambda part: windows(part.to_numpy(dtype=float), int(self.window)))
 
     def _build(self, n_inputs: int, n_outputs: int) -> nn.Module:
         return self._network(n_inputs, n_outputs)
@@ -124,7 +127,7 @@ class SequenceStreamer(Streamer):
         self.ring = np.zeros((2 * self.window, len(self.columns)), dtype=np.float32)
         self.head = 0  # position of the oldest row
         self.seen = 0
-        past = model._relevant_history(history)
+        past = model._relevant_history(same_run(history))
         for row in ([] if past is None else past[self.columns].to_numpy(dtype=float)):
             self._push(row)
 

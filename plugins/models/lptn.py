@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 from sklearn.linear_model import Ridge
 
-from thermodrift.core.components import Streamer, ThermalModel
+from thermodrift.core.components import Streamer, ThermalModel, run_slices, same_run
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.physics import calibration as cal
 from thermodrift.core.recording import Channel, Recording
@@ -157,6 +157,11 @@ class LPTN(ThermalModel):
         return obs
 
     def _observe(self, obs: cal.StateObserver, X: pd.DataFrame) -> np.ndarray:
+        """Observed states over ``X``; each later run of ``X`` starts a fresh observer at its first row."""
+        parts = run_slices(X)
+        if len(parts) > 1:
+            return np.concatenate([self._observe(obs if k == 0 else self._fresh(), X.iloc[s])
+                                   for k, s in enumerate(parts)])
         t, speed, ambient, temps = self._columns(X)
         return obs.run(t, speed, ambient, ambient, temps)
 
@@ -201,6 +206,7 @@ class _LPTNStreamer(Streamer):
         self.obs = model._fresh()
         self.columns = [*model.temperatures_, model.speed_, *([model.ambient_] if model.ambient_ else [])]
         self.W_x, self.W_T, self.w_ambient, self.c = model._row_map()
+        history = same_run(history)
         if history is not None and len(history):
             model._observe(self.obs, history)
 

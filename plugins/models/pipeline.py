@@ -26,7 +26,7 @@ import pandas as pd
 
 from thermodrift.compensator.features import DRIVE_ROLES, FeatureStage
 from thermodrift.core import registry
-from thermodrift.core.components import ThermalModel
+from thermodrift.core.components import RUN_STARTS, ThermalModel, per_run, same_run
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.recording import INPUT_ROLES as SELECTABLE_ROLES  # °C, W/m², W: what a selector picks from
 
@@ -56,6 +56,7 @@ class Pipeline(ThermalModel):
     """
 
     extra_input_roles: ClassVar[tuple[str, ...]] = INPUT_ROLES
+    sparse_targets: ClassVar[bool] = True  # selects on the measured rows; features and inner model at full rate
 
     def __init__(self, model: str = "mlr", model_params: dict | None = None, selector: str = "all",
                  selector_params: dict | None = None, features: dict | None = None, random_state: int = 0):
@@ -98,7 +99,8 @@ class Pipeline(ThermalModel):
             factory = registry.get("selector", self.selector).factory
             sel = registry.create("selector", self.selector,
                                   **registry.with_seed(factory, dict(self.selector_params or {}), self.random_state))
-            self.selected_ = list(sel.fit(X[candidates], targets).selected_)
+            measured = np.flatnonzero(np.isfinite(y).all(axis=1))  # a sparse target: select on the measured rows
+            self.selected_ = list(sel.fit(X[candidates].iloc[measured], targets.iloc[measured]).selected_)
         drives = [c for c in X.columns if roles.get(c) in DRIVE_ROLES]
         if self.features is not None:
             if "speed" in getattr(cls, "extra_input_roles", ()):
@@ -124,17 +126,21 @@ class Pipeline(ThermalModel):
     def _inner_frame(self, X: pd.DataFrame, history: pd.DataFrame | None = None) -> pd.DataFrame:
         """The inner model's input rows for ``X`` (features run through ``history`` first)."""
         raw = X[self.inner_columns_]
+        runs = {RUN_STARTS: X.attrs[RUN_STARTS]} if X.attrs.get(RUN_STARTS) else {}
         if self.features_ is None:
             frame = raw.copy()
-            frame.attrs = {"roles": dict(self.input_roles_)}
+            frame.attrs = {"roles": dict(self.input_roles_), **runs}
             return frame
-        past = None if history is None else history[self.inner_columns_].to_numpy(dtype=float)
-        F = self.features_.transform(raw.to_numpy(dtype=float), past)
-        return self._feature_frame(F, X.index)
+        if history is not None:
+            past = history[self.inner_columns_].to_numpy(dtype=float)
+            F = self.features_.transform(raw.to_numpy(dtype=float), past)
+        else:  # each run's filters start at its own first row
+            F = per_run(raw, lambda part: self.features_.transform(part.to_numpy(dtype=float)))
+        return self._feature_frame(F, X.index, runs)
 
-    def _feature_frame(self, F: np.ndarray, index: pd.Index) -> pd.DataFrame:
+    def _feature_frame(self, F: np.ndarray, index: pd.Index, runs: dict | None = None) -> pd.DataFrame:
         frame = pd.DataFrame(F, index=index, columns=self.features_.names)
-        frame.attrs = {"roles": {c: "temperature" for c in frame.columns}}
+        frame.attrs = {"roles": {c: "temperature" for c in frame.columns}, **(runs or {})}
         return frame
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
@@ -183,6 +189,7 @@ class PipelineStreamer:
         self.pipeline = pipeline
         self.columns = list(pipeline.inner_columns_)
         inner = _inner(pipeline)
+        history = same_run(history)
         past = history if history is not None and len(history) else None
         if pipeline.features_ is None:
             self.stream = None
@@ -210,6 +217,7 @@ class Ensemble(ThermalModel):
     normalised to sum 1)."""
 
     extra_input_roles: ClassVar[tuple[str, ...]] = INPUT_ROLES
+    sparse_targets: ClassVar[bool] = True  # its member pipelines are
 
     def __init__(self, members: list | None = None, weights: list | None = None, random_state: int = 0):
         self.members = members

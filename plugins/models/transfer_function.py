@@ -25,7 +25,7 @@ import pandas as pd
 from sklearn.linear_model import Ridge
 
 from thermodrift.compensator.features import FeatureStage
-from thermodrift.core.components import ThermalModel
+from thermodrift.core.components import ThermalModel, per_run, same_run
 from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.metrics import rmse
 
@@ -35,6 +35,7 @@ class TransferFunction(ThermalModel):
 
     extra_input_roles: ClassVar[tuple[str, ...]] = ("speed", "cutting_power", "ambient")
     history_length: ClassVar[int | None] = None
+    sparse_targets: ClassVar[bool] = True  # filters at full rate, read-out fitted on the measured rows
 
     def __init__(self, tau_min_s: float = 300.0, tau_max_s: float = 14400.0, n_taus: int = 4,
                  powers: tuple = (1.0, 2.0), alphas: tuple = (1e-4, 1e-3, 1e-2, 0.1, 1.0, 10.0, 100.0, 1e3),
@@ -65,7 +66,8 @@ class TransferFunction(ThermalModel):
         self.features_ = FeatureStage.fit(X.to_numpy(dtype=float), list(X.columns), X.attrs.get("roles", {}),
                                           np.asarray(X.index, dtype=float),
                                           np.geomspace(self.tau_min_s, self.tau_max_s, self.n_taus), self.powers)
-        F = self._features(X)
+        measured = np.isfinite(y).all(axis=1)
+        F, y = self._features(X)[measured], y[measured]
         mean, scale = F.mean(axis=0), F.std(axis=0)
         scale = np.where(scale > 0, scale, 1.0)
         Z = (F - mean) / scale
@@ -83,7 +85,8 @@ class TransferFunction(ThermalModel):
         self.intercept_ = np.atleast_1d(ridge.intercept_) - self.weights_ @ mean
 
     def _features(self, X: pd.DataFrame) -> np.ndarray:
-        return self.features_.transform(X[self.features_.inputs].to_numpy(dtype=float))
+        """Filtered features of ``X``, each run's filters started at its own first row."""
+        return per_run(X, lambda part: self.features_.transform(part[self.features_.inputs].to_numpy(dtype=float)))
 
     def _predict(self, X: pd.DataFrame) -> np.ndarray:
         return self._features(X) @ self.weights_.T + self.intercept_
@@ -104,6 +107,7 @@ class TransferFunctionStreamer:
     def __init__(self, model: TransferFunction, history: pd.DataFrame | None = None):
         stage = model.features_
         self.columns = stage.inputs
+        history = same_run(history)
         past = None if history is None or not len(history) else history[self.columns].to_numpy(dtype=float)
         self.stream = stage.stream(past)
         self.weights, self.intercept = model.weights_, model.intercept_
