@@ -39,6 +39,7 @@ Run::
     python benchmarks/bench_automl.py --inner-table [--inner-tpe] --tasks NAME ...   # every candidate, held out too
     python benchmarks/bench_automl.py --rules --tasks NAME ...   # final-choice rules replayed on those predictions
     python benchmarks/bench_automl.py --buildings [--greybox-json FILE]   # the houses: automl, FLAML, grey-box
+    python benchmarks/bench_automl.py --n-jobs [--tasks fl_5000rpm] [--budget FITS]   # n_jobs 1 vs the cores
 
 ``--budgets`` replaces the set's budgets (the default budget is always run), ``--hindsight-trials`` its TPE
 trials per family for the hindsight best and ``--hindsight-families`` the families tried for it, so a piece of
@@ -440,6 +441,37 @@ def figure(results: list[dict], path: Path) -> None:
     fig.savefig(path, dpi=110, bbox_inches="tight")
 
 
+def parallel_table(name: str, args) -> str:
+    """The default search on task ``name`` with ``automl.n_jobs`` 1 and with the default (the cores): wall time,
+    CPU seconds of this process and of its worker processes (load-independent counts), and whether the
+    leaderboards agree (timing columns aside) and the held-out RMSE is the same."""
+    import os
+
+    from thermodrift.core.automl.leaderboard import TIMING
+
+    task = TASKS[name]
+    spec = spec_of(task, args.seed, args.data, args.cache)
+    recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    rows, boards = [], []
+    for n_jobs in (1, None):
+        settings = Settings(budget_fits=args.budget or Settings().budget_fits, n_jobs=n_jobs)
+        before, started = os.times(), time.perf_counter()
+        result = automl_job.run(spec, settings, recording=recording)
+        wall, after = time.perf_counter() - started, os.times()
+        boards.append(result.leaderboard.drop(columns=list(TIMING)))
+        rows.append((settings.jobs(), wall, after.user + after.system - before.user - before.system,
+                     after.children_user + after.children_system - before.children_user - before.children_system,
+                     result.job.summary_metrics("model")["rmse"]))
+    same = boards[0].equals(boards[1]) and rows[0][4] == rows[1][4]
+    lines = [f"{name}: default search (budget {args.budget or Settings().budget_fits} fits), n_jobs 1 against the "
+             "default; wall times depend on the machine's load",
+             f"{'n_jobs':>7}{'wall s':>9}{'cpu s':>8}{'workers cpu s':>15}{'held-out µm':>13}"]
+    lines += [f"{n:>7}{w:>9.1f}{c:>8.1f}{k:>15.1f}{r:>13.4f}" for n, w, c, k, r in rows]
+    lines.append(f"wall ratio (default / n_jobs 1): {rows[1][1] / rows[0][1]:.2f}; leaderboards identical: "
+                 f"{'yes' if same else 'NO'}")
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--full", action="store_true", help="every task, the default budget and three others")
@@ -472,7 +504,15 @@ def main() -> None:
     parser.add_argument("--building-families", nargs="*", help="with --buildings: the families searched")
     parser.add_argument("--greybox-json", help="with --buildings: bench_greybox.py --houses --json, shown beside")
     parser.add_argument("--building-json", help="with --buildings: write the rows here")
+    parser.add_argument("--n-jobs", action="store_true",
+                        help="instead: the default search with automl.n_jobs 1 and the default (the cores) per task "
+                             "(default fl_5000rpm): wall and CPU time, identical leaderboards")
+    parser.add_argument("--budget", type=int, help="with --n-jobs: the budget (fits; default automl's default)")
     args = parser.parse_args()
+    if args.n_jobs:
+        for name in args.tasks or ["fl_5000rpm"]:
+            print(parallel_table(name, args))
+        return
     if args.buildings:
         import automl_buildings
 

@@ -1,10 +1,20 @@
 """Scoring one candidate pipeline on the inner folds: fit on each fold's training rows, predict its validation
 rows with the training rows before them as history, RMSE per fold and target in the targets' unit (µm for
-displacements, K for temperatures: :attr:`Evaluator.unit`), and its costs."""
+displacements, K for temperatures: :attr:`Evaluator.unit`), and its costs.
+
+With ``n_jobs`` > 1 the fold fits run in worker processes (forked from this one, so they share the recording,
+the registry and its plugins without pickling them); :meth:`Evaluator.evaluate_many` runs the folds of several
+candidates at once. Every fit is a pure function of its candidate, fold and seed, so the scores do not depend on
+``n_jobs`` (only the measured times do).
+"""
 
 from __future__ import annotations
 
+import multiprocessing
+import pickle
 import time
+import warnings
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -31,8 +41,10 @@ class Evaluation:
 class Evaluator:
     """Fits ``pipeline`` candidates on the inner ``folds`` of ``recording`` (all inside ``outer_train``)."""
 
-    def __init__(self, recording, outer_train: np.ndarray, targets: list[str], folds, seed: int = 0):
+    def __init__(self, recording, outer_train: np.ndarray, targets: list[str], folds, seed: int = 0,
+                 n_jobs: int = 1):
         self.recording, self.targets, self.folds, self.seed = recording, list(targets), list(folds), seed
+        self.n_jobs, self._pool = max(1, int(n_jobs)), None
         self.outer_train = np.asarray(outer_train)
         cls = registry.get("model", "pipeline").factory
         inputs = input_columns(recording, INPUT_ROLES, self.targets)
@@ -47,22 +59,74 @@ class Evaluator:
 
     def evaluate(self, params: dict, measure_costs: bool = True) -> Evaluation:
         """Fit and score ``params`` (a pipeline's parameters) on every fold; exceptions propagate."""
-        preds, fold_rmse, per_target, fit_s, model = [], [], [], 0.0, None
-        for fold, truth in zip(self.folds, self.truth):
+        out = self.evaluate_many([params], measure_costs)[0]
+        if isinstance(out, Exception):
+            raise out
+        return out
+
+    def evaluate_many(self, many: list[dict], measure_costs: bool = True) -> list[Evaluation | Exception]:
+        """:meth:`evaluate` of each of ``many``, their folds in parallel over ``n_jobs`` processes; a candidate
+        whose fit fails gets the exception of its first failing fold."""
+        tasks = [(params, k, measure_costs) for params in many for k in range(len(self.folds))]
+        if self.n_jobs == 1 or len(tasks) == 1:
+            done: list = []
+            for params in many:  # one after another, a candidate stopping at its first failing fold
+                for k in range(len(self.folds)):
+                    done.append(self._fold(params, k, measure_costs))
+                    if isinstance(done[-1], Exception):
+                        done += [done[-1]] * (len(self.folds) - 1 - k)
+                        break
+        else:
+            done = list(self._executor().map(_fold_task, tasks))
+        n = len(self.folds)
+        return [self._combine(done[i * n:(i + 1) * n]) for i in range(len(many))]
+
+    def _fold(self, params: dict, k: int, measure_costs: bool):
+        """Fold ``k`` of ``params``: (prediction, RMSE µm, RMSE per target, fit s, costs of the last fold), or
+        the exception its fit or prediction raised."""
+        fold, truth = self.folds[k], self.truth[k]
+        try:
             started = time.perf_counter()
             model = self.pipeline(params).fit(self.X.iloc[fold.train], self.y.iloc[fold.train])
-            fit_s += time.perf_counter() - started
+            fit_s = time.perf_counter() - started
             pred = predict_rows(model, self.X, fold.test, allowed=self.outer_train)
             if not np.isfinite(pred).all():
                 raise ValueError("non-finite predictions on an inner fold")
             metrics = evaluate(truth, pred)
-            preds.append(pred)
-            fold_rmse.append(float(metrics["mean"]["rmse"]))
-            per_target.append([float(metrics[t]["rmse"]) for t in self.targets])
-        costs = efficiency.measure(model, self.X, self.folds[-1].test, fit_s / len(self.folds)) \
-            if measure_costs else {}
+            costs = efficiency.measure(model, self.X, fold.test, fit_s) \
+                if measure_costs and k == len(self.folds) - 1 else {}
+        except Exception as exc:  # reported per candidate by the search
+            return exc
+        return pred, float(metrics["mean"]["rmse"]), [float(metrics[t]["rmse"]) for t in self.targets], fit_s, costs
+
+    def _combine(self, folds: list) -> Evaluation | Exception:
+        failed = next((f for f in folds if isinstance(f, Exception)), None)
+        if failed is not None:
+            return failed
+        preds, fold_rmse, per_target, fit_times, costs = (list(x) for x in zip(*folds))
+        fit_s = float(sum(fit_times))
+        cost = dict(costs[-1])
+        if cost:
+            cost["train_s"] = fit_s / len(self.folds)
         target_rmse = dict(zip(self.targets, np.mean(per_target, axis=0).tolist()))
-        return Evaluation(fold_rmse, target_rmse, aggregate(fold_rmse), preds, fit_s, costs)
+        return Evaluation(fold_rmse, target_rmse, aggregate(fold_rmse), preds, fit_s, cost)
+
+    def _executor(self) -> ProcessPoolExecutor:
+        """The worker processes, forked on first use with this evaluator (see the module docstring)."""
+        if self._pool is None:
+            import torch
+
+            global _WORKER
+            _WORKER = self
+            self._pool = ProcessPoolExecutor(self.n_jobs, mp_context=multiprocessing.get_context("fork"),
+                                             initializer=_init_worker, initargs=(torch.get_num_threads(),))
+        return self._pool
+
+    def close(self) -> None:
+        """Stop the worker processes (if any)."""
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
 
     def fold_rmse(self, pred: np.ndarray, k: int) -> float:
         """RMSE (µm, mean over targets) of ``pred`` on inner fold ``k``'s validation rows."""
@@ -72,3 +136,25 @@ class Evaluator:
         """Per-fold RMSE (µm, mean over targets) and the aggregated score of given fold predictions."""
         rmse = [self.fold_rmse(p, k) for k, p in enumerate(preds)]
         return rmse, aggregate(rmse)
+
+
+_WORKER: Evaluator | None = None  # the evaluator a forked worker process inherited
+
+
+def _init_worker(threads: int) -> None:
+    import torch
+
+    torch.set_num_threads(threads)  # the parent's setting: a fit's arithmetic does not depend on the process
+
+
+def _fold_task(task):
+    params, k, measure_costs = task
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        out = _WORKER._fold(params, k, measure_costs)
+    if isinstance(out, Exception):
+        try:
+            pickle.loads(pickle.dumps(out))
+        except Exception:  # an exception that does not travel between processes: its type name and message do
+            out = RuntimeError(f"{type(out).__name__}: {out}")
+    return out

@@ -53,7 +53,8 @@ def study_name(spec: JobSpec, settings: Settings) -> str:
     """Stable name from what defines the search except the budget, so a re-run resumes (a larger budget goes on)."""
     key = {k: v for k, v in dataclasses.asdict(spec).items()
            if k in ("dataset", "dataset_params", "split", "split_params", "targets", "input_roles", "seed")}
-    key["settings"] = {k: v for k, v in dataclasses.asdict(settings).items() if k not in ("budget_fits", "timeout_s")}
+    key["settings"] = {k: v for k, v in dataclasses.asdict(settings).items()
+                       if k not in ("budget_fits", "timeout_s", "n_jobs")}
     digest = hashlib.sha1(json.dumps(key, sort_keys=True, default=str).encode()).hexdigest()[:10]
     return f"automl-{spec.dataset}-{spec.split}-s{spec.seed}-{digest}"
 
@@ -84,7 +85,7 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
     torch.set_num_threads(spec.threads)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     folds = inner.inner_folds(recording, fold.train, settings.max_folds)
-    ev = Evaluator(recording, fold.train, targets, folds, spec.seed)
+    ev = Evaluator(recording, fold.train, targets, folds, spec.seed, n_jobs=settings.jobs())
     name = spec.study_name or study_name(spec, settings)
     with warnings.catch_warnings():  # TPE's `group` is experimental in Optuna
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)

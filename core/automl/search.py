@@ -19,6 +19,7 @@ against the budget and are not run again.
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 import warnings
@@ -43,7 +44,9 @@ class Settings:
     """``budget_fits``: fits in all (default sized for ≤ 10 min on FL_THERMAL, 2 cores); ``timeout_s``: optional
     wall-clock limit (load-dependent); ``max_folds``: inner folds; ``tpe_families``: how many of the best
     cheap families (by their portfolio score) TPE searches; ``top_rung``: network fidelities above the portfolio's;
-    ``ensemble_pool``: candidates the greedy ensemble draws from; ``families``: restrict to these models."""
+    ``ensemble_pool``: candidates the greedy ensemble draws from; ``families``: restrict to these models;
+    ``n_jobs``: worker processes for the inner folds and the portfolio (None: the cores; the result does not
+    depend on it)."""
 
     budget_fits: int = 120
     timeout_s: float | None = None
@@ -53,6 +56,16 @@ class Settings:
     ensemble_pool: int = 10
     ensemble_steps: int = 25
     families: list[str] | None = None
+    n_jobs: int | None = None
+
+    def jobs(self) -> int:
+        """Worker processes for the inner folds and the portfolio: ``n_jobs``, or the cores this process may use."""
+        if self.n_jobs is not None:
+            if int(self.n_jobs) < 1:
+                from thermodrift.core.errors import InputError
+                raise InputError(f"automl.n_jobs must be 1 or more (or null: the cores), got {self.n_jobs}")
+            return int(self.n_jobs)
+        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
 
 
 @dataclass
@@ -126,6 +139,7 @@ class Search:
         finally:
             if self.bar is not None:
                 self.bar.close()
+            self.ev.close()
         entries = self.entries()
         ok = [e for e in entries if e.evaluation is not None]
         if not ok:
@@ -146,7 +160,12 @@ class Search:
                                          skip_if_exists=False)
             self.study.set_user_attr(key, True)
         while self._waiting() and self._room():
-            self._trial()
+            if self.ev.n_jobs == 1:
+                self._trial()
+            else:  # the trials the budget has room for, evaluated at once, told in trial order
+                room = (self.settings.budget_fits - self.fits_used()) // max(1, self.n_folds)
+                waiting = sum(t.state == optuna.trial.TrialState.WAITING for t in self.study.trials)
+                self._batch(max(1, min(room, waiting)))
 
     def _waiting(self) -> bool:
         return any(t.state == optuna.trial.TrialState.WAITING for t in self.study.trials)
@@ -189,6 +208,29 @@ class Search:
 
     # ------------------------------------------------------------------------------------------------ trials
     def _trial(self, sample: Callable[[optuna.Trial], space.Candidate] | None = None) -> None:
+        trial, cand, params = self._ask(sample)
+        if params is not None:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                out = self.ev.evaluate_many([params])[0]
+            self._tell(trial, cand, out)
+
+    def _batch(self, count: int) -> None:
+        """``count`` waiting (enqueued) trials: asked in order, their folds fitted in parallel, told in order. A
+        family that fails in an earlier trial of the batch skips its later ones, as one trial at a time would."""
+        asked = [self._ask() for _ in range(count)]
+        todo = [(trial, cand, params) for trial, cand, params in asked if params is not None]
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            outs = self.ev.evaluate_many([params for _, _, params in todo])
+        for (trial, cand, _), out in zip(todo, outs):
+            if cand.family in self.failed_families:
+                self._skip(trial, "its family failed before")
+            else:
+                self._tell(trial, cand, out)
+
+    def _ask(self, sample: Callable[[optuna.Trial], space.Candidate] | None = None):
+        """The next trial, its candidate and its parameters (None when the trial was skipped)."""
         with warnings.catch_warnings():  # ask/tell: the trials' owner attribute marks a killed run's trials
             warnings.simplefilter("ignore", UserWarning)
             trial = self.study.ask()
@@ -200,18 +242,21 @@ class Search:
             trial.set_user_attr("phase", "tpe")
         family = self.families.get(cand.family)
         if family is None or cand.family in self.failed_families:
-            trial.set_user_attr("fits", 0)
-            trial.set_user_attr("skipped", "its family failed before" if family else "unknown family")
-            self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
-            return
-        params = space.at_rung(cand, cand.rung, family, self.settings.top_rung)
+            self._skip(trial, "its family failed before" if family else "unknown family")
+            return trial, cand, None
         trial.set_user_attr("fits", self.n_folds)
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                ev = self.ev.evaluate(params)
-        except Exception as exc:  # a failing candidate is recorded and the search goes on
-            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())}"[:400]
+        return trial, cand, space.at_rung(cand, cand.rung, family, self.settings.top_rung)
+
+    def _skip(self, trial: optuna.Trial, why: str) -> None:
+        trial.set_user_attr("fits", 0)
+        trial.set_user_attr("skipped", why)
+        self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
+
+    def _tell(self, trial: optuna.Trial, cand: space.Candidate, ev: Evaluation | Exception) -> None:
+        """Record a candidate's evaluation, or its failure (the search goes on; a portfolio failure leaves its
+        family out)."""
+        if isinstance(ev, Exception):
+            reason = f"{type(ev).__name__}: {' '.join(str(ev).split())}"[:400]
             trial.set_user_attr("error", reason)
             self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
             if trial.user_attrs.get("phase") == "portfolio" and cand.family not in self.failed_families:
@@ -219,6 +264,7 @@ class Search:
                 self.say(f"thermodrift: warning: automl: model {cand.family} failed and is left out: {reason}")
             self._tick()
             return
+        params = space.at_rung(cand, cand.rung, self.families[cand.family], self.settings.top_rung)
         for key, value in {"fold_rmse": ev.fold_rmse, "target_rmse": ev.target_rmse, "fit_s": ev.fit_s,
                            "costs": ev.costs, "params": params}.items():
             trial.set_user_attr(key, json.loads(json.dumps(value, default=float)))

@@ -34,7 +34,7 @@ GROUPS = {
 GROUP_KEYS = {"dataset": ["name", "params"], "split": ["kind", "params"], "selector": ["name", "params"],
               "model": ["name", "params", "search_space"], "optimizer": ["name", "params"],
               "automl": ["budget_fits", "timeout_s", "max_folds", "tpe_families", "top_rung", "ensemble_pool",
-                         "ensemble_steps", "families"]}
+                         "ensemble_steps", "families", "n_jobs"]}
 EXAMPLES = """\
   thermodrift run                                    demo_spindle, transfer_function tuned by tpe, 20 trials
   thermodrift run model=bp n_trials=50               another model, a larger budget

@@ -9,9 +9,10 @@ from thermodrift.core.hookspecs import hookimpl
 from thermodrift.core.recording import Recording, load_recording
 
 
-def recording_file(table: str, manifest: str) -> Recording:
-    """Load ``table`` with ``manifest``; bad input raises InputError naming file, column and row."""
-    return load_recording(table, manifest)
+def recording_file(table: str | list[str], manifest: str) -> Recording:
+    """Load ``table`` with ``manifest``; bad input raises InputError naming file, column and row. A list of tables
+    (or a glob pattern) is one machine's independent runs."""
+    return load_recording(table if isinstance(table, str) else [str(t) for t in table], manifest)
 
 
 def _test_params() -> list[dict]:
