@@ -111,7 +111,8 @@ def _number(cell: Any) -> float:
 class Rows:
     """Cells -> (time s, input values in the model's units). ``convert``: input -> (scale, offset) to the
     canonical unit; ``time_scale_s``: seconds per unit of the time column (None: the manifest gives no time unit,
-    so seconds or timestamps)."""
+    so seconds or timestamps); ``run_column``: a column of run labels (None: one run), where a new label starts
+    a new independent run (a cold start: :meth:`~thermodrift.compensator.guard.Compensator.new_run`)."""
 
     header: list[str]
     time_column: str
@@ -119,18 +120,26 @@ class Rows:
     inputs: list[str]
     convert: dict[str, tuple[float, float]]
     source: str = "-"
+    run_column: str | None = None
 
     def __post_init__(self):
         where = {str(name).strip(): i for i, name in enumerate(self.header)}
-        for column in [self.time_column, *self.inputs]:
+        for column in [self.time_column, *self.inputs, *([self.run_column] if self.run_column else [])]:
             if column not in where:
                 raise InputError("column not found in the input header", file=self.source, column=column,
                                  hint=f"the package reads {', '.join(self.inputs)} and the time column "
                                       f"{self.time_column!r}")
         self.t_idx = where[self.time_column]
+        self.run_idx = where[self.run_column] if self.run_column else None
         self.idx = [where[c] for c in self.inputs]
         self.scale = np.array([self.convert[c][0] for c in self.inputs], dtype=float)
         self.offset = np.array([self.convert[c][1] for c in self.inputs], dtype=float)
+
+    def run(self, cells: list[Any]) -> str | None:
+        """The row's run label (None without a run column)."""
+        if self.run_idx is None:
+            return None
+        return str(cells[self.run_idx]).strip() if self.run_idx < len(cells) else ""
 
     def parse(self, cells: list[Any]) -> tuple[float, np.ndarray]:
         """(time in s, or NaN where unreadable; the inputs, NaN for a missing or unreadable cell)."""
@@ -206,8 +215,12 @@ def run(compensator, writer, rows: Iterable[list[Any]], parse: Rows, out: IO[str
     controller that reads values as they come. Returns the number of input rows."""
     table = csv.writer(out)
     table.writerow(writer.header())
-    n = 0
+    n, run = 0, None
     for cells in rows:
+        label = parse.run(cells)
+        if n and label != run:  # the next run (a cold start): the model and its checks start afresh
+            compensator.new_run()
+        run = label
         t, values = parse.parse(cells)
         step = compensator.update(t, values) if np.isfinite(t) else \
             compensator.hold_row(t, values, [("time", "time_unreadable")])

@@ -163,3 +163,33 @@ def test_bad_multi_run_input_is_one_line(tmp_path, cli, case):
     assert len(lines) == 1 and "Traceback" not in result.stderr
     assert {"empty_run": "no data rows", "other_channels": "no such column", "never_measured": "never measured",
             "run_again": "appears again"}[case] in lines[0]
+
+
+def test_compensate_starts_a_new_run_where_the_run_column_changes():
+    import io
+
+    from thermodrift.compensator import stream
+
+    class Recorder:
+        def __init__(self):
+            self.calls = []
+
+        def update(self, t, values):
+            self.calls.append(("update", t))
+            return None
+
+        def new_run(self):
+            self.calls.append(("new_run", None))
+
+    class Writer:
+        def header(self):
+            return ["time_s"]
+
+        def rows(self, step):
+            return []
+
+    rows = [[0, 20.0, "mon"], [60, 20.5, "mon"], [0, 19.0, "tue"], [60, 19.5, "tue"]]
+    parse = stream.Rows(["t", "T", "day"], "t", 1.0, ["T"], {"T": (1.0, 0.0)}, run_column="day")
+    comp = Recorder()
+    stream.run(comp, Writer(), rows, parse, io.StringIO())
+    assert [c[0] for c in comp.calls] == ["update", "update", "new_run", "update", "update"]

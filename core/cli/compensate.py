@@ -69,10 +69,10 @@ def run(args: argparse.Namespace) -> int:
     stream.check_writable(args.out, "output")
     stream.check_writable(args.audit, "audit log")
     pkg = compensator.load(args.package)
-    time_col, time_scale, convert = _manifest(args.manifest, pkg.inputs)
+    time_col, time_scale, convert, run_col = _manifest(args.manifest, pkg.inputs)
     probes = stream.read_probes(args.probe, pkg.targets) if args.probe else None
     header, rows = stream.open_rows(args.input)
-    parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input)
+    parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input, run_col)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
     writer = registry.create("cnc", args.cnc, package=pkg, reference_mm=args.reference_mm,
@@ -104,7 +104,7 @@ def _check_format(name: str, known) -> None:
 
 def _manifest(path: str, inputs: list[str]):
     """(time column, time scale to s, {input column: (scale, offset)} to the canonical units the model was
-    trained in), read with core/recording's manifest reader and unit table (one home for units)."""
+    trained in, the run column or None), read with core/recording's manifest reader and unit table (one home for units)."""
     from thermodrift.core import recording  # its manifest reader and unit table
 
     manifest = recording.read_manifest(path, ())
@@ -120,4 +120,4 @@ def _manifest(path: str, inputs: list[str]):
                              column=c, hint="give it the role and unit it had in training")
         convert[c] = recording.UNITS[role][1][unit]
     scale = None if manifest.time_unit is None else recording.TIME_UNITS[manifest.time_unit]
-    return manifest.time, scale, convert  # scale None: seconds or timestamps
+    return manifest.time, scale, convert, manifest.run  # scale None: seconds or timestamps

@@ -1,10 +1,11 @@
 """Recordings: a table plus a YAML manifest -> channels by role in canonical units.
 
-Four modules, one job each: :mod:`~thermodrift.core.recording.types` (the :class:`Recording` type and the
+Five modules, one job each: :mod:`~thermodrift.core.recording.types` (the :class:`Recording` type and the
 roles), :mod:`~thermodrift.core.recording.conditions` (working conditions from the speed schedule: the one
 speed segmenter, and the schedule windows built on it), :mod:`~thermodrift.core.recording.loading`
-(reading a table and its manifest, with validation) and :mod:`~thermodrift.core.recording.file_checks` (the
-loader's bounded checks of a file before a parser reads it). Every public name is importable from here.
+(reading a table and its manifest, with validation), :mod:`~thermodrift.core.recording.runs` (several tables,
+sheets or run-column blocks as one machine's independent runs) and :mod:`~thermodrift.core.recording.file_checks`
+(the loader's bounded checks of a file before a parser reads it). Every public name is importable from here.
 """
 
 from thermodrift.core.recording.conditions import (STEP_WINDOW_S, Window, detect_conditions, schedule_windows,
