@@ -274,6 +274,18 @@ def report(rows: list[dict], fl: list[dict], args) -> str:
             f"{statistics.mean(loc) if loc else float('nan'):.0%} | |",
             f"| run time per case, median / max (s) | {statistics.median(secs):.1f} / {max(secs):.1f} | "
             f"≤ 120 s per 30 h at 15 s |"]
+    if fd:  # the honest score: top-1 over the cases whose mechanism the report lists as tested, and a nested or
+        # untestable one counted correct only when the report says so and names nothing else
+        from thermodrift.core.physics.diagnose.status import of_reason
+
+        standing = {r["case"]: of_reason(r["why_not_hidden"]) if r["top1"] != r["hidden"] else "tested"
+                    for r in hidden}
+        testable = [r for r in hidden if standing[r["case"]] == "tested"]
+        honest = [r for r in hidden if r["top1"] == r["hidden"]
+                  or (standing[r["case"]] != "tested" and r["top1"] == "none")]
+        out += [f"| top-1 over the cases whose mechanism is tested | "
+                f"{sum(r['top1'] == r['hidden'] for r in testable)}/{len(testable)} | |",
+                f"| top-1 counting 'nested' / 'untestable' as said, naming nothing | {len(honest)}/{len(hidden)} | |"]
     if slow:
         out.append(f"| run time per 30 h recording at 15 s (max over {len(slow)}) | "
                    f"{max(r['seconds'] for r in slow):.1f} s | ≤ 120 s |")

@@ -192,6 +192,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--generator", choices=("fd", "lumped", "both"), default="both")
     ap.add_argument("--full", action="store_true", help="3 cases per mechanism and 20 nulls per generator")
+    ap.add_argument("--per", type=int, metavar="N", help="cases per mechanism and generator (overrides --full)")
+    ap.add_argument("--nulls", type=int, metavar="N", help="null cases per generator (overrides --full)")
     ap.add_argument("--sealed", action="store_true", help="the sealed range (run once, at the end)")
     ap.add_argument("--sealed-base", type=int, default=SEALED_BASE, metavar="SEED")
     ap.add_argument("--errors", type=float, nargs="+", default=[0.2], help="parameter error sizes (default 0.2)")
@@ -224,15 +226,21 @@ def main(argv: list[str] | None = None) -> int:
         done = {r["case"]: r for r in (json.loads(x) for x in args.results.read_text(encoding="utf-8").splitlines()
                                        if x.strip())}
     per, nulls = (3, 20) if args.full else (1, 4)
+    per, nulls = args.per or per, args.nulls if args.nulls is not None else nulls
     gens = ("fd", "lumped") if args.generator == "both" else (args.generator,)
     specs = []
-    for g in gens:
-        cases = independent.case_list(args.sealed, per, nulls, args.sealed_base if args.sealed else 0)
-        if args.timing:
-            cases = [(cases[0][0] + 900, "coolant_coupling", False)]
-        for i, (seed, hidden, _) in enumerate(cases):
+    cases = independent.case_list(args.sealed, per, nulls, args.sealed_base if args.sealed else 0)
+    if args.timing:
+        cases = [(cases[0][0] + 900, "coolant_coupling", False)]
+    for i, (seed, hidden, _) in enumerate(cases):
+        for g in gens:
             for error in args.errors:
                 specs.append((g, seed, hidden, error, i % 2 == 1, 15.0 if args.timing else args.step_s))
+    # generators, mechanism and null cases interleaved: a run cut short (or one --part) holds a balanced share
+    hid, nul = [s for s in specs if s[2]], [s for s in specs if not s[2]]
+    specs = [s for _, _, s in sorted([(i / len(hid), 0, s) for i, s in enumerate(hid)]
+                                     + [((i + 0.5) / len(nul), 1, s) for i, s in enumerate(nul)],
+                                     key=lambda x: (x[0], x[1]))]
     if args.only:
         specs = [s for s in specs if (s[2] or "none") in args.only]
     if args.part:
