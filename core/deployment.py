@@ -26,7 +26,6 @@ from thermodrift.compensator import limits as limits_mod
 
 LIMITS = "limits.json"
 FALLBACKS = "fallbacks"
-CHEAP_RUNTIMES = ("linear", "transfer_function")
 FILTER_SETTLE = 5.0  # a filter's state is settled after this many of its longest time constants
 
 
@@ -79,21 +78,14 @@ def warmup_rows(state: dict[str, Any], sampling_interval_s: float) -> int:
     return int(math.ceil(FILTER_SETTLE * longest / sampling_interval_s))
 
 
-def _cheap(state: dict[str, Any]) -> bool:
-    if state.get("runtime") == "pipeline":
-        return state["model"].get("runtime") in CHEAP_RUNTIMES
-    if state.get("runtime") == "ensemble":
-        return all(_cheap(m) for m in state["members"])
-    return state.get("runtime") in CHEAP_RUNTIMES
-
-
 def fallbacks(model, X: pd.DataFrame, y: pd.DataFrame, sampling_interval_s: float) -> dict[str, dict[str, Any]]:
-    """Sensor -> {"state", "warmup_rows"}: the model refitted without each input, for cheap families only."""
-    try:
-        state = model.export_state()
-    except NotImplementedError:
+    """Sensor -> {"state", "warmup_rows"}: the model refitted without each input, for models that declare they
+    refit cheaply (``refits_cheaply``; a pipeline or an ensemble as the models inside it)."""
+    if not getattr(model, "refits_cheaply", False) or X.shape[1] < 2:
         return {}
-    if not _cheap(state) or X.shape[1] < 2:
+    try:
+        model.export_state()
+    except NotImplementedError:
         return {}
     out = {}
     for column in X.columns:

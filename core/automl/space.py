@@ -5,8 +5,8 @@ A candidate is a ``pipeline`` model's parameters (``model``, ``model_params``, `
 ``features``) plus a fidelity (``rung``: epochs of a network, see :func:`at_rung`). A plugin may declare, as class
 attributes, ``automl_cost`` ("cheap", "medium", "expensive"; "skip" leaves it out), ``automl_space`` (a
 search space in :mod:`thermodrift.core.search_space` form replacing its ``search_space()`` here) and
-``automl_features`` (whether a feature stage may feed it; never for models reading raw channels by role); the defaults
-below come from the registry: a model trained by :mod:`thermodrift.core.training` (a network) is expensive,
+``automl_features`` (whether a feature stage may feed it; never for models reading raw channels by role); without
+them: a model trained by :mod:`thermodrift.core.training` (a network) is expensive,
 every other one cheap. Models that read the measured target (``uses_target_history``: persistence) are
 references, never candidates.
 """
@@ -24,15 +24,9 @@ from thermodrift.core import registry, search_space
 from thermodrift.core.training import TorchThermalModel
 
 COSTS = ("cheap", "medium", "expensive")
-# Registry defaults for the built-in components (a plugin states its own with ``automl_cost``).
-MODEL_COSTS = {"lptn": "medium", "lptn_hybrid": "medium", "mnr": "cheap", "pso_bpnn": "skip",
-               "pipeline": "skip", "ensemble": "skip"}
-# Families that take no feature stage by default (a plugin states its own with ``automl_features``): MNR expands
-# its inputs into polynomial terms, which many filtered columns make slow and ill-conditioned.
-NO_FEATURES = {"mnr"}
-# Selectors: every registered one takes part unless it is slow (it trains networks or runs a swarm per fit) or
-# random; a plugin selector may set ``automl_cost = "skip"``.
-SELECTOR_COSTS = {"fuzzy_sensitivity": "skip", "hdbscan_pso": "skip", "random_k": "skip"}
+# Each component declares its own cost (``automl_cost``) and whether a feature stage may feed it
+# (``automl_features``), built-in or third-party; the conformance suite checks the values (model_checks).
+# Selectors: every registered one takes part unless it declares ``automl_cost = "skip"`` (slow or random).
 # Feature stage: filter time constants (s) from tau_min_s to tau_max_s, geometric, and drive heat powers.
 FEATURE_SPACE = {"tau_min_s": {"type": "float", "low": 120.0, "high": 3600.0, "log": True},
                  "tau_max_s": {"type": "float", "low": 3600.0, "high": 43200.0, "log": True},
@@ -123,7 +117,7 @@ def families(reg: registry.Registry | None = None, only: list[str] | None = None
             continue  # a reference (it reads the measured target), never a candidate
         if roles is not None and missing_roles(cls, roles):
             continue  # cannot run on this recording: left out before fitting
-        cost = getattr(cls, "automl_cost", None) or MODEL_COSTS.get(name)
+        cost = getattr(cls, "automl_cost", None)
         network = isinstance(cls, type) and issubclass(cls, TorchThermalModel)
         cost = cost or ("expensive" if network else "cheap")
         if only is not None:
@@ -136,7 +130,7 @@ def families(reg: registry.Registry | None = None, only: list[str] | None = None
         space = dict(cls.search_space() if space is None else space)
         search_space.distributions(space)
         reads = getattr(cls, "extra_input_roles", ())
-        takes = getattr(cls, "automl_features", name not in NO_FEATURES) and "speed" not in reads \
+        takes = getattr(cls, "automl_features", True) and "speed" not in reads \
             and "cutting_power" not in reads
         out.append(Family(name, cost if cost in COSTS else "cheap", space, takes, network))
     return out
@@ -148,7 +142,7 @@ def selectors(reg: registry.Registry | None = None) -> dict[str, dict]:
     out = {}
     for name in reg.names("selector"):
         cls = reg.get("selector", name).factory
-        if (getattr(cls, "automl_cost", None) or SELECTOR_COSTS.get(name)) == "skip":
+        if getattr(cls, "automl_cost", None) == "skip":
             continue
         space = getattr(cls, "automl_space", None)
         out[name] = dict(cls.search_space() if space is None else space) if name != "all" else {}

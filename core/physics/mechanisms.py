@@ -28,8 +28,9 @@ sensitivities, so it is not searched). :meth:`Mechanism.declare` checks every pa
 inside the network field's physical limits.
 
 Writing one: subclass :class:`Mechanism`, set ``id``, ``parameters``, ``options``, ``drivers`` and
-``signature`` (the residual signature a missing instance leaves, used as evidence text) and ``laws`` (the
-nonlinear constitutive laws it assumes, if any), implement
+``signature`` (the residual signature a missing instance leaves, used as evidence text), ``laws`` (the
+nonlinear constitutive laws it assumes, if any), ``summary``, ``experiment``, ``shapes`` and ``signed`` (what the
+finder reports and screens; see the class), implement
 ``_apply(network, p, o)`` where ``p`` holds the parameter values and ``o`` the options, and
 ``_declare(before, after, p, o)`` returning the free parameters; override ``places`` when it can act in more
 than its default place. Register the class with ``thermodrift_register_mechanisms``.
@@ -74,6 +75,15 @@ class Mechanism:
     # Constitutive laws it assumes that are nonlinear in a temperature or a driver (a power of speed, T⁴), beyond
     # the network's linear elements; of candidates the data cannot tell apart the finder names the one with fewest.
     laws: ClassVar[tuple[str, ...]] = ()
+    # What the finder reports and screens, declared here (checked by thermodrift.testing): a one-line ``summary``
+    # of the physics it adds (the report's words); the ``experiment`` that exposes it on its own, named when two
+    # candidates fit equally well (empty: "an experiment driving it alone"); response ``shapes`` (parameter
+    # values) screened besides the defaults where its shape depends on a parameter; ``signed``: its amplitude may
+    # take either sign (a negative fitted amplitude is still physical).
+    summary: ClassVar[str] = ""
+    experiment: ClassVar[str] = ""
+    shapes: ClassVar[tuple[dict[str, float], ...]] = ()
+    signed: ClassVar[bool] = False
 
     def __init__(self, **options: Any):
         unknown = set(options) - set(self.options)
@@ -85,6 +95,11 @@ class Mechanism:
     def __repr__(self) -> str:
         changed = {k: v for k, v in self.chosen.items() if v != self.options[k]}
         return f"{type(self).__name__}({', '.join(f'{k}={v!r}' for k, v in changed.items())})"
+
+    @classmethod
+    def experiment_text(cls) -> str:
+        """The experiment that exposes it on its own, in the report's words."""
+        return cls.experiment or "an experiment driving it alone"
 
     @classmethod
     def defaults(cls) -> dict[str, float]:

@@ -15,7 +15,8 @@ As pytest classes to subclass (see :mod:`thermodrift.testing.pytest_components`,
         name = "my_model"
 
 Each check is a function ``check(factory, params)`` listed by :func:`checks` (``"selector"``, ``"model"``,
-``"optimizer"``, ``"dataset"``, ``"mechanism"``, ``"cnc"``); :func:`parameter_sets` gives a factory's ``get_test_params()``.
+``"optimizer"``, ``"dataset"``, ``"mechanism"``, ``"cnc"``); :func:`parameter_sets` gives a factory's
+``get_test_params()``.
 """
 
 from thermodrift.testing.config_checks import check_hydra_config, compose_config

@@ -89,4 +89,24 @@ def seeded(est: Any, seed: int = 0) -> Any:
     return est
 
 
-SHARED_CHECKS = (check_constructor_only_stores_params, check_params_round_trip, check_clone)
+AUTOML_COSTS = ("cheap", "medium", "expensive", "skip")
+
+
+def check_automl_metadata(factory: Factory, params: dict) -> None:
+    """What AutoML and deployment read from the component, where it declares it: ``automl_cost`` one of cheap,
+    medium, expensive, skip; ``automl_features`` a bool; ``automl_space`` a search space; ``refits_cheaply`` a bool
+    (or a property of the instance, as a pipeline asks the model inside it)."""
+    cost = getattr(factory, "automl_cost", None)
+    assert cost is None or cost in AUTOML_COSTS, f"automl_cost {cost!r} is not one of {', '.join(AUTOML_COSTS)}"
+    takes = getattr(factory, "automl_features", None)
+    assert takes is None or isinstance(takes, bool), f"automl_features must be True or False, got {takes!r}"
+    cheap = inspect.getattr_static(factory, "refits_cheaply", False)
+    assert isinstance(cheap, (bool, property)), f"refits_cheaply must be True or False, got {cheap!r}"
+    space = getattr(factory, "automl_space", None)
+    if space is not None:
+        from thermodrift.core.search_space import distributions
+
+        distributions(dict(space))
+
+
+SHARED_CHECKS = (check_constructor_only_stores_params, check_params_round_trip, check_clone, check_automl_metadata)

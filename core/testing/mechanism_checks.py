@@ -142,5 +142,25 @@ def check_unplaced_reason(factory: Factory, params: dict) -> None:
             f"unplaced() must start 'skipped: ' or 'nested in the baseline: ', not {why!r}")
 
 
-MECHANISM_CHECKS = (check_signature_and_drivers, check_declares_free_parameters, check_neutral_changes_nothing,
-                    check_missing_drivers_named, check_unplaced_reason)
+def check_report_metadata(factory: Factory, params: dict) -> None:
+    """What the finder reports and screens, declared on the mechanism: a one-line ``summary``; an
+    ``experiment`` (text, may be empty); ``shapes``, a tuple of parameter-value dicts inside the bounds; ``signed``
+    a bool."""
+    summary = getattr(factory, "summary", "")
+    assert isinstance(summary, str) and summary.strip() and "\n" not in summary, (
+        "set summary: one line on the physics it adds, in the report's words")
+    assert isinstance(getattr(factory, "experiment", ""), str), "experiment must be text"
+    assert isinstance(getattr(factory, "signed", False), bool), "signed must be True or False"
+    shapes = getattr(factory, "shapes", ())
+    assert isinstance(shapes, tuple), f"shapes must be a tuple of dicts, got {type(shapes).__name__}"
+    bounds = {p.name: (p.low, p.high) for p in factory.parameters}
+    for shape in shapes:
+        assert isinstance(shape, dict) and shape, f"a shape must be a non-empty dict of parameter values: {shape!r}"
+        for name, value in shape.items():
+            assert name in bounds, f"shape {shape} names {name!r}, not a parameter ({', '.join(bounds)})"
+            low, high = bounds[name]
+            assert low <= value <= high, f"shape {shape}: {name} = {value} outside [{low}, {high}]"
+
+
+MECHANISM_CHECKS = (check_report_metadata, check_signature_and_drivers, check_declares_free_parameters,
+                    check_neutral_changes_nothing, check_missing_drivers_named, check_unplaced_reason)

@@ -31,6 +31,8 @@ class CoolantJacket(Mechanism):
     """A cooling jacket on the motor: extra conductance (W/K) from the motor nodes to the surroundings."""
 
     id = "coolant_jacket"  # todo: the registry name
+    summary = "a cooling jacket on the motor"  # todo: one line in the report's words
+    experiment = "the motor's cool-down with the jacket flowing and drained"  # todo: what exposes it alone
     # todo: Parameter(name, default, low, high, unit, neutral, doc): 1–3 numeric parameters
     parameters = (Parameter("G_W_K", 5.0, 0.0, 60.0, "W/K", 0.0, "jacket conductance, shared by the nodes"),)
     # todo: where it acts; the defaults find the place from node groups so one mechanism fits every network

@@ -20,6 +20,8 @@ from thermodrift.core.physics.network import Edge
 
 class AmbientCoupling(Mechanism):
     id = "ambient_coupling"
+    summary = "structure exchanging heat with the room air (extra convection to ambient)"
+    experiment = "a spindle-off soak over a full daily ambient cycle"
     parameters = (Parameter("G_W_K", 3.0, 0.0, 50.0, "W/K", 0.0, "extra conductance to ambient, shared by the nodes"),)
     options = {"nodes": None, "groups": ("structure", "housing")}
     drivers = ("ambient",)

@@ -22,6 +22,8 @@ from thermodrift.core.physics.network import AxisDriveSource, Edge, Node
 
 class AxisDriveHeat(Mechanism):
     id = "axis_drive_heat"
+    summary = "feed-drive heat (screw nut, support bearings, servo motor) ∝ |v|^(1+k)"
+    experiment = "axis motion with the spindle stopped"
     parameters = (
         Parameter("power_W", 40.0, 0.0, 400.0, "W", 0.0, "drive heat at 10,000 mm/min"),
         Parameter("exponent", 1.3, 1.0, 2.5, "1", 1.3, "velocity exponent 1+k"),

@@ -22,6 +22,12 @@ from thermodrift.core.physics.network import BearingSource
 
 class BearingHeatLaw(Mechanism):
     id = "bearing_heat_law"
+    summary = "the bearings' heat follows another speed law than the network assumes"
+    experiment = "speed plateaus at four or more levels, each to steady state"
+    shapes = ({"exponent_shift": 0.5, "viscosity_coeff_per_K": 0.0},
+              {"exponent_shift": -0.5, "viscosity_coeff_per_K": 0.0},
+              {"exponent_shift": 0.0, "viscosity_coeff_per_K": 0.01})
+    signed = True  # a negative fitted amplitude is still physical
     parameters = (
         Parameter("exponent_shift", 2 / 3, -1.0, 1.5, "1", 0.0, "added to the viscous speed exponent"),
         Parameter("viscosity_coeff_per_K", 0.01, 0.0, 0.04, "1/K", 0.0, "added relative viscous-heat fall per K"),

@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingAeRia(BuildingMechanism):
     id = "building_aeria"
+    summary = "the envelope's solar aperture Ae (solar gain into the envelope) plus a direct gain"
     part = AERIA
     parameters = (aperture("Ae", 5.0, "effective solar aperture of the envelope"),
                   resistance("Ria", 20.0, "interior to outdoor air beside the envelope"))

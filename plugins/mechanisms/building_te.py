@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingTe(BuildingMechanism):
     id = "building_te"
+    summary = "the building envelope Te between the interior and the outdoor air"
     part = "Te"
     parameters = (capacity("Ce", 5.0, "building envelope"),
                   resistance("Rie", 1.0, "interior to envelope"),

@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingTh(BuildingMechanism):
     id = "building_th"
+    summary = "the heater Th, a capacity the heating enters before the interior air"
     part = "Th"
     parameters = (capacity("Ch", 0.2, "heater and its water"),
                   resistance("Rih", 0.5, "heater to interior"),

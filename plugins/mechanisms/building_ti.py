@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingTi(BuildingMechanism):
     id = "building_ti"
+    summary = "the interior state Ti, the one-state building model"
     part = "Ti"
     parameters = (capacity("Ci", 1.0, "interior air, furniture and inner surfaces"),
                   resistance("Ria", 5.0, "interior to outdoor air"),

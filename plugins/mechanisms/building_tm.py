@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingTm(BuildingMechanism):
     id = "building_tm"
+    summary = "the thermal medium Tm (inner walls, floor) exchanging with the interior through Rim"
     part = "Tm"
     parameters = (capacity("Cm", 10.0, "thermal medium: inner walls, floor, furniture mass"),
                   resistance("Rim", 0.5, "interior air to medium"),

@@ -11,6 +11,7 @@ from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 class BuildingTs(BuildingMechanism):
     id = "building_ts"
+    summary = "the sensor Ts, a small capacity exchanging with the interior through Ris"
     part = "Ts"
     parameters = (capacity("Cs", 0.05, "temperature sensor and what it is mounted on"),
                   resistance("Ris", 0.5, "interior air to sensor"),

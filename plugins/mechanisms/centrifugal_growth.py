@@ -19,6 +19,9 @@ LIMIT_UM = 20.0  # physical bound of the growth at the reference speed (µm), ei
 
 class CentrifugalGrowth(Mechanism):
     id = "centrifugal_growth"
+    summary = "the spindle nose grows under centrifugal force (and bearing contact change) at once"
+    experiment = "short speed steps (minutes) that leave no time to warm"
+    signed = True  # a negative fitted amplitude is still physical
     parameters = (Parameter("um_at_ref", 1.0, -LIMIT_UM, LIMIT_UM, "um", 0.0, "growth at the reference speed"),)
     options = {"axes": ("z",)}
     drivers = ("speed",)

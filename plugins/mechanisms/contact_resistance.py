@@ -19,6 +19,9 @@ from thermodrift.core.physics.network import BOUNDARIES
 
 class ContactResistance(Mechanism):
     id = "contact_resistance"
+    summary = "a joint that conducts worse than the network assumes (series resistance R)"
+    experiment = "sensors on both sides of the joint"
+    signed = True  # a negative fitted amplitude is still physical
     parameters = (Parameter("R_K_W", 0.1, 0.0, 5.0, "K/W", 0.0, "series thermal resistance of the joint"),)
     options = {"edge": None}
     signature = "gradient across a joint too small; downstream sensor lags"

@@ -18,6 +18,8 @@ from thermodrift.core.physics.network import Advection, Edge, Node
 
 class CoolantCoupling(Mechanism):
     id = "coolant_coupling"
+    summary = "a cooling jacket fed by the chiller (advection from the coolant inlet)"
+    experiment = "chiller cycling with the spindle stopped"
     parameters = (
         Parameter("G_W_K", 40.0, 0.0, 500.0, "W/K", 0.0, "jacket–structure conductance, shared by the nodes"),
         Parameter("mdot_cp_W_K", 280.0, 1.0, 2000.0, "W/K", 280.0, "coolant mass flow × specific heat"),

@@ -17,6 +17,8 @@ from thermodrift.core.physics.network import CuttingSource
 
 class CuttingHeat(Mechanism):
     id = "cutting_heat"
+    summary = "process heat from cutting entering tool, workpiece and table"
+    experiment = "cutting vs air-cutting at the same speed"
     parameters = (Parameter("fraction", 0.10, 0.0, 0.3, "1", 0.0, "share of the cutting power heating the machine"),)
     options = {"nodes": None, "groups": ("tool", "table", "bearing")}
     drivers = ("cutting_power",)

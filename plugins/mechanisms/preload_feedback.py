@@ -19,6 +19,8 @@ from thermodrift.core.physics.network import PreloadFeedback as FeedbackSource
 
 class PreloadFeedback(Mechanism):
     id = "preload_feedback"
+    summary = "thermally induced bearing preload: a warmer shaft tightens the bearings, which heat more"
+    experiment = "a long run at top speed against one at half speed"
     parameters = (Parameter("gain_W_K", 1.0, 0.0, 10.0, "W/K", 0.0, "extra heat per K of shaft–housing difference"),)
     options = {"nodes": None, "hot": None, "cold": None}
     drivers = ("speed",)

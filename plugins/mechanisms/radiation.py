@@ -18,6 +18,8 @@ from thermodrift.core.physics.network import Edge, radiation_conductance
 
 class Radiation(Mechanism):
     id = "radiation"
+    summary = "thermal radiation from painted castings to the surroundings, linearised"
+    experiment = "a change of surface emissivity (paint or foil): thermally it is indistinguishable from convection"
     parameters = (
         Parameter("emissivity", 0.9, 0.0, 1.0, "1", 0.0, "surface emissivity (painted cast iron ≈ 0.9)"),
         Parameter("area_m2", 1.0, 0.0, 10.0, "m2", 1.0, "radiating area, shared by the nodes"),

@@ -18,6 +18,8 @@ from thermodrift.core.physics.mechanisms import FreeParameter, Mechanism, Parame
 
 class SensorLag(Mechanism):
     id = "sensor_lag"
+    summary = "temperature sensors that lag the metal (a probe in a bore, a magnetic sensor on paint)"
+    experiment = "fast speed steps with a fast reference sensor beside the slow one"
     parameters = (Parameter("lag_s", 120.0, 0.0, 1800.0, "s", 0.0, "added first-order sensor time constant"),)
     options = {"sensors": None}
     signature = "residual ≈ −τ_s dT/dt: derivative spikes at speed steps"

@@ -23,6 +23,10 @@ from thermodrift.core.physics.network import Edge, Node
 
 class SlowStructuralMode(Mechanism):
     id = "slow_structural_mode"
+    summary = "a massive, slowly warming part whose expansion acts against the fast path"
+    experiment = "a cool-down of at least 12 h after a long run"
+    shapes = ({"tau_h": 2.0}, {"tau_h": 6.0}, {"tau_h": 16.0})
+    signed = True  # a negative fitted amplitude is still physical
     parameters = (
         Parameter("tau_h", 4.0, 0.5, 24.0, "h", 4.0, "time constant of the slow part"),
         Parameter("gain_um_K", -2.0, -10.0, 10.0, "um/K", 0.0, "output sensitivity to the slow part"),

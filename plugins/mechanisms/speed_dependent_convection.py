@@ -17,6 +17,9 @@ from thermodrift.core.physics.network import Edge
 
 class SpeedDependentConvection(Mechanism):
     id = "speed_dependent_convection"
+    summary = "forced convection on rotating parts, h ∝ n^0.7 (3.75 ω^0.7 r^0.4)"
+    experiment = "warm-up and cool-down to steady state at several speed plateaus"
+    shapes = ({"exponent": 0.7},)
     parameters = (
         Parameter("G_rot_W_K", 3.0, 0.0, 50.0, "W/K", 0.0, "forced-convection conductance at the reference speed"),
         Parameter("exponent", 0.7, 0.4, 1.0, "1", 0.7, "speed exponent of h"),

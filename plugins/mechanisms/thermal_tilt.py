@@ -22,6 +22,9 @@ COLD_GROUPS = ("structure", "table")          # the side it bends against
 
 class ThermalTilt(Mechanism):
     id = "thermal_tilt"
+    summary = "bending of column or headstock from a temperature difference across it"
+    experiment = "sensors on opposite faces of the column"
+    signed = True  # a negative fitted amplitude is still physical
     parameters = (Parameter("um_K", 3.0, -20.0, 20.0, "um/K", 0.0, "displacement per K of hot–cold difference"),)
     options = {"hot": None, "cold": None, "axes": ("x", "y")}
     signature = "X/Y channels follow a temperature difference, not a mean"

@@ -85,6 +85,8 @@ class LPTN(ThermalModel):
     the model depends on its start).
     """
 
+    automl_cost = "medium"  # a calibration per fit: between the linear families and the networks
+
     extra_input_roles: ClassVar[tuple[str, ...]] = ("temperature", "speed", "ambient")
     # The auto network's heat inputs are driven by the spindle speed; without it nothing heats the hidden nodes.
     requires_roles: ClassVar[tuple[str, ...]] = ("speed",)

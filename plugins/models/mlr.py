@@ -13,6 +13,8 @@ from thermodrift.core.hookspecs import hookimpl
 class MLR(ThermalModel):
     """Least squares y = b + Σ a_i T_i (µm, µm/K); ``alpha`` > 0 adds an L2 penalty on standardised inputs."""
 
+    refits_cheaply = True  # a least-squares solve: a fallback without each sensor costs milliseconds
+
     def __init__(self, alpha: float = 0.0):
         self.alpha = alpha
 

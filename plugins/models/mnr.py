@@ -16,6 +16,10 @@ from thermodrift.core.hookspecs import hookimpl
 class MNR(ThermalModel):
     """y = b + Σ a_i T_i + Σ_{i≤j} c_ij T_i T_j (µm), ridge penalty ``alpha`` on the standardised terms."""
 
+    automl_cost = "cheap"
+    # no feature stage in AutoML: the polynomial expansion of many filtered columns is slow and ill-conditioned
+    automl_features = False
+
     def __init__(self, degree: int = 2, alpha: float = 1.0):
         self.degree = degree
         self.alpha = alpha

@@ -55,6 +55,13 @@ class Pipeline(ThermalModel):
     ``{"taus_s": [s, ...], "powers": [p, ...]}``; ``random_state`` seeds the components that take a seed.
     """
 
+    automl_cost = "skip"  # AutoML builds pipelines itself
+
+    @property
+    def refits_cheaply(self) -> bool:
+        """A pipeline refits as cheaply as the model inside it (its class's ``refits_cheaply``)."""
+        return bool(getattr(registry.get("model", self.model).factory, "refits_cheaply", False))
+
     extra_input_roles: ClassVar[tuple[str, ...]] = INPUT_ROLES
     sparse_targets: ClassVar[bool] = True  # selects on the measured rows; features and inner model at full rate
 
@@ -215,6 +222,13 @@ class PipelineStreamer:
 class Ensemble(ThermalModel):
     """A weighted sum of pipelines: ``members`` are pipeline parameter dicts, ``weights`` their weights (≥ 0,
     normalised to sum 1)."""
+
+    automl_cost = "skip"  # AutoML builds ensembles itself
+
+    @property
+    def refits_cheaply(self) -> bool:
+        """An ensemble refits cheaply when every member does."""
+        return all(Pipeline(**m).refits_cheaply for m in self.members or [])
 
     extra_input_roles: ClassVar[tuple[str, ...]] = INPUT_ROLES
     sparse_targets: ClassVar[bool] = True  # its member pipelines are

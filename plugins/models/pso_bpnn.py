@@ -42,6 +42,8 @@ class PSOBPNN(BPNetwork):
     ``inertia``, ``c1``, ``c2``: the swarm's coefficients (S2's constriction values by default).
     """
 
+    automl_cost = "skip"  # a swarm of networks per fit
+
     def __init__(self, hidden_layers: int = 2, hidden_units: int = 8, activation: str = "tanh",
                  swarm_size: int = 20, pso_iterations: int = 30, weight_bound: float = 1.0, inertia: float = 0.729,
                  c1: float = 1.49445, c2: float = 1.49445, trainer: dict | None = None, random_state: int = 0):

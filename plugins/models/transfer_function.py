@@ -33,6 +33,8 @@ from thermodrift.core.metrics import rmse
 class TransferFunction(ThermalModel):
     """First-order-filtered temperatures and drive heat terms with a ridge read-out (see the module docstring)."""
 
+    refits_cheaply = True  # filters and a ridge read-out: a fallback without each sensor is cheap
+
     extra_input_roles: ClassVar[tuple[str, ...]] = ("speed", "cutting_power", "ambient")
     history_length: ClassVar[int | None] = None
     sparse_targets: ClassVar[bool] = True  # filters at full rate, read-out fitted on the measured rows

@@ -84,6 +84,8 @@ class FuzzySensitivity(Selector):
     ``max_classes``: only groupings with at most this many classes compete (None: all).
     """
 
+    automl_cost = "skip"  # slow: it trains per fit
+
     def __init__(self, hidden_units: int = 10, significance: float = 0.05, max_classes: int | None = None,
                  random_state: int = 0):
         self.hidden_units = hidden_units

@@ -51,6 +51,8 @@ class HDBSCANPSO(Selector):
         random_state: seed of the inner study.
     """
 
+    automl_cost = "skip"  # slow: a swarm per fit
+
     def __init__(self, optimizer: str = "pso", optimizer_params: dict | None = None, n_iterations: int = 25,
                  random_state: int = 0):
         self.optimizer = optimizer

@@ -9,6 +9,8 @@ from thermodrift.core.hookspecs import hookimpl
 class RandomK(Selector):
     """Keep ``k`` channels drawn uniformly with ``random_state``; all of them if there are fewer."""
 
+    automl_cost = "skip"  # random: no evidence for a choice
+
     def __init__(self, k: int = 4, random_state: int = 0):
         self.k = k
         self.random_state = random_state

@@ -311,7 +311,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
             rejected.append({"mechanism": f.candidate.mechanism,
                              "reason": f"not identifiable from this data: explains the residual as well as "
                                        f"{win.candidate.mechanism} (within {EQUIVALENT:.0%}); "
-                                       f"{_experiment(win.candidate.mechanism, f.candidate.mechanism)}"})
+                                       f"{_experiment(win.candidate, f.candidate)}"})
         for f, d in zip(fitted, discovered):
             if f is not win and f not in rivals and f.candidate is not win.candidate:
                 j = judged[fitted.index(f)]
@@ -346,10 +346,10 @@ def _dedupe(rejected: list[dict], found: set[str]) -> list[dict]:
     return out
 
 
-def _experiment(a: str, b: str) -> str:
-    ea, eb = selection.EXPERIMENTS.get(a, "an experiment driving it alone"), selection.EXPERIMENTS.get(
-        b, "an experiment driving it alone")
-    return f"to separate them: {ea} (for {a}) against {eb} (for {b})"
+def _experiment(a, b) -> str:
+    """The experiments that separate candidates ``a`` and ``b`` (each declared on its mechanism)."""
+    return (f"to separate them: {a.factory.experiment_text()} (for {a.mechanism}) against "
+            f"{b.factory.experiment_text()} (for {b.mechanism})")
 
 
 def fitted_label(win) -> str:
@@ -406,7 +406,7 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
                      + ", ".join(f"{k} = {v:.4g}" for k, v in win.fixed.items()))
     if rivals:
         evidence += ("; not identifiable from this data against " + ", ".join(r.candidate.mechanism for r in rivals)
-                     + " (" + _experiment(c.mechanism, rivals[0].candidate.mechanism) + ")")
+                     + " (" + _experiment(c, rivals[0].candidate) + ")")
     return {"mechanism": c.mechanism, "confidence": round(conf, 3),
             "parameters": {k: _round(v) for k, v in win.parameters.items()},
             "ci": {k: [_round(min(v[0], win.parameters[k])), _round(max(v[1], win.parameters[k]))]

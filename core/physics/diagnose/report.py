@@ -27,7 +27,6 @@ channel: measured, baseline, augmented). Logging them to MLflow is the verb's
 
 from __future__ import annotations
 
-import importlib
 import json
 from pathlib import Path
 from typing import Any
@@ -35,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from thermodrift.core.metrics import rms, rmse
-from thermodrift.core.physics.diagnose import selection
 
 
 def _r(x: float) -> float:
@@ -60,14 +58,14 @@ def to_json(d) -> dict[str, Any]:
 
 
 def _what(mechanism: str) -> str:
-    """The mechanism's one-line description (its module docstring's first line after the id)."""
+    """The mechanism's one-line ``summary`` (its name in words where it declares none)."""
+    return getattr(_mechanism(mechanism), "summary", "") or mechanism.replace("_", " ")
+
+
+def _mechanism(mechanism: str):
     from thermodrift.core import registry
 
-    try:
-        doc = importlib.import_module(registry.default().get("mechanism", mechanism).factory.__module__).__doc__
-        return doc.strip().splitlines()[0].split(" — ", 1)[-1].rstrip(".")
-    except Exception:  # a third-party mechanism without a docstring still gets a verdict
-        return mechanism.replace("_", " ")
+    return registry.default().get("mechanism", mechanism).factory
 
 
 def _structural(d) -> str:
@@ -116,7 +114,7 @@ def verdict(d) -> str:
     if worse:
         text += (f" It is worse there on {len(worse)} of {len(before)} drift channels: the finding fits the data it "
                  "was found on but does not carry over to the final block, so confirm it with "
-                 f"{selection.EXPERIMENTS.get(d.findings[0]['mechanism'], 'an experiment driving it alone')} "
+                 f"{_mechanism(d.findings[0]['mechanism']).experiment_text()} "
                  "before compensating with it.")
     text += outside
     structural = _structural(d)

@@ -33,14 +33,6 @@ from thermodrift.core.physics.mechanisms import added
 from thermodrift.core.physics.network import Network, TemperatureSensor
 from thermodrift.core.physics.synthetic import PT100_TOLERANCE
 
-# Shapes screened besides the defaults for the built-in mechanisms whose response shape depends on a parameter.
-SHAPES: dict[str, list[dict[str, float]]] = {
-    "slow_structural_mode": [{"tau_h": 2.0}, {"tau_h": 6.0}, {"tau_h": 16.0}],
-    "bearing_heat_law": [{"exponent_shift": 0.5, "viscosity_coeff_per_K": 0.0},
-                         {"exponent_shift": -0.5, "viscosity_coeff_per_K": 0.0},
-                         {"exponent_shift": 0.0, "viscosity_coeff_per_K": 0.01}],
-    "speed_dependent_convection": [{"exponent": 0.7}],
-}
 # Relative singular-value cut of the linear refits (offsets, sensitivities): an auto network's many node
 # temperatures are nearly collinear, and keeping directions below 1e-6 of the largest made the refitted drift
 # extrapolate to the unseen block 2-3 times worse on FL_THERMAL.
@@ -51,8 +43,6 @@ LINEAR_RCOND = 1e-6
 # sensor offset but something the network misses.
 BOUNDARY_INPUTS = ("ambient_degC", "coolant_inlet_degC")
 BOUNDARY_CLASS = "B"
-# Mechanisms whose parameters may take either sign: a negative fitted amplitude is still physical.
-_SIGNED = {"bearing_heat_law", "centrifugal_growth", "slow_structural_mode", "thermal_tilt", "contact_resistance"}
 
 
 @dataclass
@@ -186,7 +176,7 @@ def candidates(registry, base: Baseline, scenario, channels: list[str], recordin
         for options in cls.places(base.network):
             if _names_lag_node(base.network, options):  # an expansion map's lagged reading, no part to act on
                 continue
-            for shape in SHAPES.get(mid, [{}]):
+            for shape in list(cls.shapes) or [{}]:  # the shapes it declares besides its defaults
                 try:
                     mech = cls(**options)
                     net, free = mech.declare(base.network, **shape)
@@ -322,7 +312,7 @@ def prepare(base: Baseline, measured: np.ndarray, sigma: np.ndarray, kinds: list
 
 
 def _nonneg_first(screen: Screen, cand: Candidate) -> bool:
-    return screen.temps_first and cand.mechanism not in _SIGNED
+    return screen.temps_first and not getattr(cand.factory, "signed", False)
 
 
 def score(screen: Screen, cand: Candidate, n_tests: int) -> Candidate:

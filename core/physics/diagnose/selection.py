@@ -12,7 +12,7 @@ its misfit at the start), not this statistic, and on some recordings ends where 
 at the start it was given (the screening's linearised amplitude). The start, with only the linear parameters
 solved, is therefore scored too and the better of the two is kept, by the whitened statistic on the channels
 the candidate is judged on (:mod:`.rule`: the drift channels when its response reaches them), else balanced (the
-search result's intervals go with it; the start has none). A shaped mechanism (:data:`SHAPES`) with amplitude
+search result's intervals go with it; the start has none). A shaped mechanism (it declares ``shapes``) with amplitude
 parameters its search leaves fixed (the slow mode's conductance) is fitted from two starts, those at their
 default and at the screening's temperature amplitude, and the better is kept alike.
 
@@ -41,29 +41,11 @@ from scipy import stats
 from thermodrift.core.physics.calibration import UNIDENTIFIABLE_RATIO, FreeParameter, calibrate
 from thermodrift.core.physics.diagnose import rule
 from thermodrift.core.physics.diagnose.noise import NoiseModel
-from thermodrift.core.physics.diagnose.screening import (SHAPES, Candidate, Screen, _basis_of, _place_text, baseline_of,
+from thermodrift.core.physics.diagnose.screening import (Candidate, Screen, _basis_of, _place_text, baseline_of,
                                                         restricted)
 from thermodrift.core.physics.network import Network
 
 EQUIVALENT = 0.05   # rival within this share of the winner's balanced gain: a candidate for "not identifiable"
-
-# The experiment that exposes each mechanism on its own (named when two candidates fit equally well).
-EXPERIMENTS = {
-    "ambient_coupling": "a spindle-off soak over a full daily ambient cycle",
-    "coolant_coupling": "chiller cycling with the spindle stopped",
-    "cutting_heat": "cutting vs air-cutting at the same speed",
-    "speed_dependent_convection": "warm-up and cool-down to steady state at several speed plateaus",
-    "bearing_heat_law": "speed plateaus at four or more levels, each to steady state",
-    "preload_feedback": "a long run at top speed against one at half speed",
-    "sensor_lag": "fast speed steps with a fast reference sensor beside the slow one",
-    "centrifugal_growth": "short speed steps (minutes) that leave no time to warm",
-    "slow_structural_mode": "a cool-down of at least 12 h after a long run",
-    "contact_resistance": "sensors on both sides of the joint",
-    "radiation": "a change of surface emissivity (paint or foil): thermally it is indistinguishable from convection",
-    "axis_drive_heat": "axis motion with the spindle stopped",
-    "thermal_tilt": "sensors on opposite faces of the column",
-}
-
 
 @dataclass
 class Fitted:
@@ -97,8 +79,8 @@ def _declared(cand: Candidate, base: Network,
     """The augmented network at start values and each free parameter with its start value.
 
     The screening's temperature amplitude rescales the first log parameter of a pure-amplitude mechanism; with
-    ``scale_held``, those of a shaped one (:data:`SHAPES`) that its search leaves fixed (:func:`_held_amplitudes`;
-    None when it has none).
+    ``scale_held``, those of a shaped one (it declares ``shapes``) that its search leaves fixed
+    (:func:`_held_amplitudes`; None when it has none).
     """
     parts = cand.parts or [cand]
     amps = cand.part_betas if cand.parts else [cand.beta.get("temperatures", 0.0)]
@@ -107,7 +89,7 @@ def _declared(cand: Candidate, base: Network,
         before = net
         mech = part.factory(**part.options)
         net, free = mech.declare(before, **part.shape)
-        held = _held_amplitudes(part, free, amp) if scale_held and cand.mechanism in SHAPES else {}
+        held = _held_amplitudes(part, free, amp) if scale_held and getattr(cand.factory, "shapes", ()) else {}
         if held:
             net, free = mech.declare(before, **part.shape, **held)
             scaled = True
@@ -116,7 +98,7 @@ def _declared(cand: Candidate, base: Network,
         logs = [fp for fp in free if fp.scale == "log"]
         for fp in free:
             start = fp.value
-            if logs and fp is logs[0] and cand.mechanism not in SHAPES and amp > 0:
+            if logs and fp is logs[0] and not getattr(cand.factory, "shapes", ()) and amp > 0:
                 start = float(np.clip(fp.value * amp, fp.low, fp.high))
             out.append((fp, start))
     return None if scale_held and not scaled else (net, out)

@@ -19,6 +19,8 @@ class FanCooling(Mechanism):
     """Extra convection (W/K) from the motor to the room air, independent of the spindle speed."""
 
     id = "fan_cooling"
+    summary = "a motor fan blowing room air over the motor at a constant rate"
+    experiment = "the motor's cool-down with the fan running and with it stopped"
     parameters = (Parameter("G_W_K", 4.0, 0.0, 40.0, "W/K", 0.0, "fan conductance to ambient, shared by the nodes"),)
     options = {"nodes": None, "groups": ("motor", "housing")}
     drivers = ("ambient",)
