@@ -131,24 +131,26 @@ class Search:
             from tqdm import tqdm
             self.bar = tqdm(total=self.settings.budget_fits, initial=min(self.fits_used(), self.settings.budget_fits),
                             unit="fit", desc="automl", file=sys.stderr, dynamic_ncols=True)
-        try:
-            self._phase("portfolio", lambda: [(c, "portfolio") for c in
-                                              space.portfolio(list(self.families.values()), self.selectors)])
-            self._promote()
-            self._tpe()
+        try:  # the worker processes (n_jobs) serve the phases and the final choice's recomputed predictions
+            try:
+                self._phase("portfolio", lambda: [(c, "portfolio") for c in
+                                                  space.portfolio(list(self.families.values()), self.selectors)])
+                self._promote()
+                self._tpe()
+            finally:
+                if self.bar is not None:
+                    self.bar.close()
+            entries = self.entries()
+            ok = [e for e in entries if e.evaluation is not None]
+            if not ok:
+                from thermodrift.core.errors import InputError
+                reasons = sorted({e.error for e in entries})
+                raise InputError(f"every automl candidate failed: {'; '.join(reasons)[:300]}")
+            eligible = self._eligible(ok)
+            best = self._best(eligible)
+            ensemble = self._hedge(eligible, best) or self._ensemble(eligible, best)
         finally:
-            if self.bar is not None:
-                self.bar.close()
             self.ev.close()
-        entries = self.entries()
-        ok = [e for e in entries if e.evaluation is not None]
-        if not ok:
-            from thermodrift.core.errors import InputError
-            reasons = sorted({e.error for e in entries})
-            raise InputError(f"every automl candidate failed: {'; '.join(reasons)[:300]}")
-        eligible = self._eligible(ok)
-        best = self._best(eligible)
-        ensemble = self._hedge(eligible, best) or self._ensemble(eligible, best)
         return SearchResult(entries, best, ensemble, self.fits_used(), self.ev.folds, self.stopped_by)
 
     def _phase(self, name: str, make: Callable[[], list[tuple[space.Candidate, str]]]) -> None:
