@@ -76,3 +76,40 @@ def test_each_hook_gets_a_registrar_bound_to_its_plugin(tmp_path, monkeypatch):
     component = reg.get("model", "doors_probe")
     assert (component.origin, component.module) == ("doors-probe", "doors_probe_plugin")
     assert not any(name.startswith("_") for name in vars(reg))  # no per-call private state on the registry
+
+
+def test_cnc_formats_and_runtimes_are_doors_the_compensator_reads_without_core():
+    """The registry and the compensator's own reader (standard library only) see the same formats and runtimes,
+    built-in and third-party, through the same entry points."""
+    from thermodrift.compensator import discovery
+
+    reg = registry.default()
+    for kind in ("cnc", "runtime"):
+        assert sorted(discovery.components(kind)) == reg.names(kind)
+    assert all(discovery.components("cnc")[n] is reg.get("cnc", n).factory for n in reg.names("cnc"))
+    assert {"csv", "siemens", "fanuc", "beckhoff"} <= set(reg.names("cnc"))
+    assert {"linear", "transfer_function", "lptn", "sequence", "pipeline", "ensemble"} <= set(reg.names("runtime"))
+    assert reg.get("cnc", "siemens").module == "thermodrift.compensator.cnc.siemens"
+
+
+def test_an_unmarked_hook_function_registers(tmp_path, monkeypatch):
+    """A module of the compensator writes its hook without ``hookimpl`` (it imports neither core nor pluggy)."""
+    src = tmp_path / "src"
+    src.mkdir()
+    monkeypatch.syspath_prepend(str(src))
+    (src / "plain_door_plugin.py").write_text(textwrap.dedent("""
+        class Words:
+            pass
+
+        def thermodrift_register_cnc_formats(registry):
+            registry.add("cnc", "plain_words", Words)
+    """))
+    info = tmp_path / "plain_door-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: plain-door\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[thermodrift]\nwords = plain_door_plugin\n")
+    try:
+        reg = registry.load(list(importlib.metadata.PathDistribution(info).entry_points))
+    finally:
+        sys.modules.pop("plain_door_plugin", None)
+    assert reg.names("cnc") == ["plain_words"] and reg.get("cnc", "plain_words").origin == "plain-door"
