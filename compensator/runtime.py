@@ -31,15 +31,15 @@ def thermodrift_register_runtimes(registry):
     """The built-in families (a third-party runtime registers its own class from its own module)."""
     for name, module, cls, text in (
             ("linear", "linear", "Runtime", "y = ((x − mean) / scale) · coef + intercept, as mlr predicts "
-             "(µm from °C)"),
+             "(µm from °C)."),
             ("transfer_function", "filters", "Runtime", "The feature stage (raw and first-order-filtered "
-             "temperatures, drive heat terms) and a linear read-out (µm)"),
+             "temperatures, drive heat terms) and a linear read-out (µm)."),
             ("lptn", "physics", "Runtime", "The calibrated thermal network's state observer and its linear "
-             "read-out (lptn, lptn_hybrid)"),
-            ("sequence", "networks", "Runtime", "Torch networks from their weights, loaded with weights_only"),
+             "read-out (lptn, lptn_hybrid)."),
+            ("sequence", "networks", "Runtime", "Torch networks from their weights, loaded with weights_only."),
             ("pipeline", "pipeline", "Runtime", "The AutoML pipeline: selected raw inputs, feature stage, inner "
-             "model"),
-            ("ensemble", "pipeline", "Ensemble", "A weighted sum of pipelines (µm)")):
+             "model."),
+            ("ensemble", "pipeline", "Ensemble", "A weighted sum of pipelines (µm).")):
         registry.add("runtime", name, Family(_PKG + module, cls, text))
 
 
