@@ -54,7 +54,7 @@ def configure(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from thermodrift import compensator
-    from thermodrift.compensator import stream
+    from thermodrift.compensator import cnc, stream
     from thermodrift.compensator.audit import Audit
     from thermodrift.core import registry
 
@@ -65,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
                            "--velo-factor": (args.velo_factor, "a fraction"),
                            "--ipo-cycle-ms": (args.ipo_cycle_ms, "ms"),
                            "--reference-mm": (args.reference_mm, "mm")}, finite=("--reference-mm",))
-    _check_format(args.cnc, registry.names("cnc"))
+    _check_format(args.cnc, registry.listing().names("cnc"))  # the saved listing: no plugin imported for it
     stream.check_writable(args.out, "output")
     stream.check_writable(args.audit, "audit log")
     pkg = compensator.load(args.package)
@@ -75,9 +75,10 @@ def run(args: argparse.Namespace) -> int:
     parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input, run_col)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
-    writer = registry.create("cnc", args.cnc, package=pkg, reference_mm=args.reference_mm,
-                             detection_unit_um=args.detection_unit_um, max_axis_velo_mm_min=args.max_axis_velo_mm_min,
-                             velo_factor=args.velo_factor, ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
+    # the format through the compensator's reader of the same door: the training plugins stay unimported
+    writer = cnc.writer(pkg, args.cnc, reference_mm=args.reference_mm, detection_unit_um=args.detection_unit_um,
+                        max_axis_velo_mm_min=args.max_axis_velo_mm_min, velo_factor=args.velo_factor,
+                        ipo_cycle_s=args.ipo_cycle_ms / 1000.0)
     out = sys.stdout if args.out == "-" else open(args.out, "w", newline="", encoding="utf-8")
     audit_fh = open(args.audit, "w", encoding="utf-8") if args.audit else None
     try:
