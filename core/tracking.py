@@ -221,6 +221,10 @@ def log_automl(result, config: dict) -> None:
     mlflow.set_tags({"model": job.spec.model, "protocol": job.protocol, "automl.chosen": result.describe()[:5000],
                      "automl.family": best.candidate.family, "automl.stopped_by": result.search.stopped_by})
     failed = int((result.leaderboard["status"] == "failed").sum())
+    mlflow.set_tag("extrapolation", result.extrapolates()[:5000] or "none")
+    mlflow.log_metrics({metric_key("extrapolation", e.driver, k): v for e in result.extrapolation
+                        for k, v in (("beyond", e.beyond), ("share_of_span", e.share), ("rows", float(e.rows)))
+                        if v < float("inf")})  # share: inf for a driver constant in training
     mlflow.log_metrics({"automl/fits": float(result.search.fits), "automl/candidates": float(len(result.leaderboard)),
                         "automl/failed": float(failed), "automl/wall_s": float(result.wall_s),
                         "automl/inner_score": float(job.valid_rmse)})

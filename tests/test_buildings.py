@@ -150,6 +150,12 @@ def test_run_export_compensate_on_a_house_in_kelvin(tmp_path, cli):
     assert list(values.columns) == ["time_s", "yTi_degC", "yTi_raw_degC", "yTi_status"]
     assert np.allclose(np.diff(values["time_s"]), 900.0)  # timestamps streamed as seconds
     assert values["yTi_degC"].between(5, 35).all()  # an indoor temperature in °C
+    assert "extrapolates" not in out.stderr  # a day of the training part
+    head.assign(Ta=head["Ta"] + 30.0).to_csv(tmp_path / "hot.csv", sep=";")  # a heat wave in winter
+    out = cli(tmp_path, "compensate", "pkg", "--input", "hot.csv", "--manifest", str(MANIFEST), "--out", "h.csv")
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "input row 1: Ta = " in out.stderr and "the model extrapolates" in out.stderr
+    assert "the input (96 rows) extrapolates beyond the training range" in out.stderr and "K above" in out.stderr
     refused = cli(tmp_path, "compensate", "pkg", "--input", "day.csv", "--manifest", str(MANIFEST), "--out", "w.csv",
                   "--cnc", "fanuc")
     assert refused.returncode == 2 and "is a temperature: use csv" in refused.stderr

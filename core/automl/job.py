@@ -19,7 +19,7 @@ import optuna
 import torch
 
 from thermodrift.core import registry, splits
-from thermodrift.core.automl import folds as inner, leaderboard, space
+from thermodrift.core.automl import extrapolation, folds as inner, leaderboard, space
 from thermodrift.core.automl.evaluate import Evaluator
 from thermodrift.core.automl.search import Search, SearchResult, Settings
 from thermodrift.core.errors import InputError
@@ -32,14 +32,15 @@ SAMPLER, SAMPLER_PARAMS = "tpe", {"n_startup_trials": 8, "multivariate": True, "
 
 @dataclass
 class AutoMLResult:
-    """The outer result (``job``: model "pipeline" or "ensemble" with the chosen parameters), the search and its
-    leaderboard."""
+    """The outer result (``job``: model "pipeline" or "ensemble" with the chosen parameters), the search, its
+    leaderboard, and the drivers in which the held-out part leaves the training range (:mod:`.extrapolation`)."""
 
     job: JobResult
     search: SearchResult
     leaderboard: object  # pandas DataFrame
     study_name: str
     wall_s: float
+    extrapolation: list = dataclasses.field(default_factory=list)  # extrapolation.Excursion, farthest first
 
     def describe(self) -> str:
         """The chosen pipeline (or the ensemble's weighted members) in words."""
@@ -47,6 +48,11 @@ class AutoMLResult:
         if ens is None:
             return space.describe(self.search.best.candidate.params)
         return " + ".join(f"{w:.2f} × [{space.describe(m)}]" for w, m in zip(ens["weights"], ens["members"]))
+
+    def extrapolates(self) -> str:
+        """One line naming the drivers in which the held-out part extrapolates and how far (empty: none)."""
+        what = f"the held-out part ({self.job.folds[0].name})"
+        return extrapolation.summary(self.extrapolation, what) if self.extrapolation else ""
 
 
 def study_name(spec: JobSpec, settings: Settings) -> str:
@@ -84,6 +90,9 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
                          hint=space.left_out_line(missing, "it").removeprefix("automl: "))
     torch.set_num_threads(spec.threads)
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    beyond = extrapolation.check(recording, fold.train, fold.test, targets)
+    if beyond:  # said before the search: what its inner folds cannot vouch for unless they extrapolated too
+        say(f"thermodrift: warning: {extrapolation.summary(beyond, f'the held-out part ({fold.name})')}")
     folds = inner.inner_folds(recording, fold.train, settings.max_folds)
     ev = Evaluator(recording, fold.train, targets, folds, spec.seed, n_jobs=settings.jobs())
     name = spec.study_name or study_name(spec, settings)
@@ -97,8 +106,9 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
     model_name, params = result.chosen()
     job = refit_and_evaluate(spec, recording, fold, targets, model_name, params,
                              result.ensemble["score"] if result.ensemble else result.best.score)
-    board = leaderboard.table(result.entries, folds, targets, result.ensemble)
-    return AutoMLResult(job, result, board, name, time.perf_counter() - started)
+    board = extrapolation.mark(leaderboard.table(result.entries, folds, targets, result.ensemble), recording, folds,
+                               targets, registry, beyond)
+    return AutoMLResult(job, result, board, name, time.perf_counter() - started, beyond)
 
 
 def refit_and_evaluate(spec: JobSpec, recording, fold: splits.Fold, targets: list[str], model_name: str,

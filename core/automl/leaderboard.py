@@ -6,8 +6,9 @@ model, or ``ensemble``), ``settings`` (the model's settings, short; empty: its d
 ``features``, ``rung`` (a network's fidelity), ``phase`` (portfolio, tpe, rung<k>, ensemble), ``status`` (ok,
 failed), ``inner_score`` ((mean + worst) / 2 of the fold RMSEs, µm), ``fold<k>_rmse`` (µm, mean over targets),
 ``rmse <target>`` (µm, mean over folds), ``fit_s`` (s, all folds), ``latency_batch_ms`` and ``latency_stream_ms``
-(ms per row), ``n_parameters``, ``params`` (the pipeline's parameters as JSON), ``error``. Timing columns depend on
-the machine; every other column is deterministic for a seed and budget.
+(ms per row), ``n_parameters``, ``params`` (the pipeline's parameters as JSON), ``error``; the automl job adds
+``inner_extrapolated`` and ``never_extrapolated`` (:func:`thermodrift.core.automl.extrapolation.mark`). Timing
+columns depend on the machine; every other column is deterministic for a seed and budget.
 """
 
 from __future__ import annotations

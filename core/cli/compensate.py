@@ -69,10 +69,10 @@ def run(args: argparse.Namespace) -> int:
     stream.check_writable(args.out, "output")
     stream.check_writable(args.audit, "audit log")
     pkg = compensator.load(args.package)
-    time_col, time_scale, convert, run_col = _manifest(args.manifest, pkg.inputs)
+    time_col, time_scale, convert, run_col, roles = _manifest(args.manifest, pkg.inputs)
     probes = stream.read_probes(args.probe, pkg.targets) if args.probe else None
     header, rows = stream.open_rows(args.input)
-    parse = stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input, run_col)
+    parse = _Watched(stream.Rows(header, time_col, time_scale, pkg.inputs, convert, args.input, run_col), pkg, roles)
     comp = pkg.compensator(max_step_um=args.max_step_um, clamp_um=args.clamp_um, limits=not args.no_limits,
                            probes=probes)
     # the format through the compensator's reader of the same door: the training plugins stay unimported
@@ -92,7 +92,35 @@ def run(args: argparse.Namespace) -> int:
     if args.out != "-":
         print(f"wrote {args.cnc} values for {n} input rows to {args.out}"
               + (f", audit in {args.audit}" if args.audit else ""))
+    beyond = parse.watch.found()
+    if beyond:
+        from thermodrift.core.automl import extrapolation
+
+        print(f"thermodrift: warning: {extrapolation.summary(beyond, f'the input ({n} rows)')}", file=sys.stderr)
     return 0
+
+
+class _Watched:
+    """The row parser, watching each input against its training range (:class:`extrapolation.Watch`): the first
+    row on which an input leaves it by more than the margin is said at once on stderr (the model extrapolates)."""
+
+    def __init__(self, rows, pkg, roles: dict[str, tuple[str, str]]):
+        from thermodrift.core.automl import extrapolation
+
+        self.rows, self.n = rows, 0
+        self.watch = extrapolation.Watch(pkg.limits["inputs"], pkg.inputs, {c: r for c, (r, _) in roles.items()},
+                                         {c: u for c, (_, u) in roles.items()})
+
+    def run(self, cells):
+        return self.rows.run(cells)
+
+    def parse(self, cells):
+        t, values = self.rows.parse(cells)
+        self.n += 1
+        for name in self.watch.update(values):
+            print(f"thermodrift: warning: input row {self.n}: {name} = {values[self.watch.names.index(name)]:.4g} "
+                  "is beyond its training range by more than the margin: the model extrapolates", file=sys.stderr)
+        return t, values
 
 
 def _check_format(name: str, known) -> None:
@@ -113,12 +141,14 @@ def _manifest(path: str, inputs: list[str]):
     if missing:
         raise InputError("the manifest does not name an input of the package", file=path, column=missing[0],
                          hint=f"name every input the model reads: {', '.join(inputs)}")
-    convert = {}
+    convert, roles = {}, {}
     for c in inputs:
         role, unit, _ = manifest.channels[c]
         if role in ("condition", "ignore"):
             raise InputError(f"the package reads this column as a number, the manifest gives role {role}", file=path,
                              column=c, hint="give it the role and unit it had in training")
         convert[c] = recording.UNITS[role][1][unit]
+        roles[c] = (role, recording.UNITS[role][0] if unit != recording.UNITLESS else unit)
     scale = None if manifest.time_unit is None else recording.TIME_UNITS[manifest.time_unit]
-    return manifest.time, scale, convert, manifest.run  # scale None: seconds or timestamps
+    # scale None: seconds or timestamps; roles: {input: (role, unit)}
+    return manifest.time, scale, convert, manifest.run, roles

@@ -25,9 +25,10 @@ from hydra.types import RunMode
 from omegaconf import DictConfig, OmegaConf
 
 from thermodrift.core import configs, registry, resume, schema, tracking, tracking_faults, trial_faults
+from thermodrift.core.automl import extrapolation
 from thermodrift.core.cli import error_line, run_options
 from thermodrift.core.errors import InputError, PluginError
-from thermodrift.core.study import Job, JobSpec
+from thermodrift.core.study import Job, JobSpec, input_columns
 
 SWEEP_ENV = "THERMODRIFT_SWEEP_ID"
 _STATE = {"composed": False}
@@ -275,6 +276,7 @@ def job_report(result, run, uri: str, by_horizon=None) -> str:
     if same:
         lines.append(f"note: the model's held-out predictions equal the {same} baseline's (within 0.001 "
                      f"{result.unit})")
+    lines += [f"warning: {line}" for line in extrapolation.of_result(result)]
     names = dict.fromkeys(result.spec.model if who == "model" else who for who in result.folds[0].metrics)
     for name in (n for n in names if getattr(registry.get("model", n).factory, "uses_target_history", False)):
         lines.append(f"{name} reads the measured target of the previous sample: a reference, not a compensation "
@@ -290,11 +292,12 @@ def automl_report(result, run, uri: str, by_horizon=None) -> str:
     job = result.job
     board = result.leaderboard
     show = board[["rank", "trial", "model", "settings", "selector", "features", "status", "inner_score"]
-                 + [c for c in board.columns if c.startswith("fold")]].head(10)
+                 + [c for c in board.columns if c.startswith("fold")]
+                 + (["never_extrapolated"] if result.extrapolation else [])].head(10)
     table = tracking.comparison(job)[["rmse", "mae", "max_abs_error", "r2"]]
     for target in job.targets:
         table[f"rmse {target}"] = [job.summary_metrics(who, target)["rmse"] for who in job.folds[0].metrics]
-    inputs = [c for role in job.spec.input_roles for c in job.recording.columns(role)]
+    inputs = input_columns(job.recording, job.spec.input_roles, job.targets)
     lines = [f"\nautoml on {job.spec.dataset} · {job.spec.split}  [{job.protocol} protocol]",
              f"targets ({job.unit}): {', '.join(job.targets)}",
              f"inner folds: {'; '.join(f.name for f in result.search.folds)}",
@@ -305,6 +308,8 @@ def automl_report(result, run, uri: str, by_horizon=None) -> str:
              f"held-out ({job.folds[0].name.removeprefix('held out: ')}), {job.unit}, mean over targets:",
              table.to_string(float_format="%.3f"),
              *tracking.horizon_lines(by_horizon, job.unit),
+             *([f"warning: {result.extrapolates()}; candidates with never_extrapolated=True were never validated "
+                "beyond a fold's training range in the drivers they read"] if result.extrapolation else []),
              *([f"mlr baseline: MLR on every input temperature ({len(inputs)}), as in every automl job"]
                if "mlr" in job.spec.baselines else []),
              f"leaderboard: {run.info.artifact_uri}/leaderboard.csv",

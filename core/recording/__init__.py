@@ -10,11 +10,11 @@ sheets or run-column blocks as one machine's independent runs) and :mod:`~thermo
 
 from thermodrift.core.recording.conditions import (STEP_WINDOW_S, Window, detect_conditions, schedule_windows,
                                                  speed_segments)
-from thermodrift.core.recording.loading import (MAX_NAN_RUN, MIN_ROWS, TIME_UNITS, UNITS, Manifest, PlausibilityWarning,
+from thermodrift.core.recording.loading import (MAX_NAN_RUN, MIN_ROWS, TIME_UNITS, UNITLESS, UNITS, Manifest, PlausibilityWarning,
                                               load_recording, read_manifest)
 from thermodrift.core.recording.types import (ERROR_UNITS, HEAT_INPUT_ROLES, INPUT_ROLES, ROLES, TARGET_ROLES,
                                             TEMPERATURE_ROLES, TIME_INDEX, Channel, Recording)
 
-__all__ = ["ROLES", "TEMPERATURE_ROLES", "HEAT_INPUT_ROLES", "INPUT_ROLES", "TARGET_ROLES", "ERROR_UNITS", "TIME_INDEX", "MIN_ROWS", "MAX_NAN_RUN", "UNITS", "TIME_UNITS", "Manifest", "read_manifest", "STEP_WINDOW_S", "Channel",
+__all__ = ["ROLES", "TEMPERATURE_ROLES", "HEAT_INPUT_ROLES", "INPUT_ROLES", "TARGET_ROLES", "ERROR_UNITS", "TIME_INDEX", "MIN_ROWS", "MAX_NAN_RUN", "UNITS", "UNITLESS", "TIME_UNITS", "Manifest", "read_manifest", "STEP_WINDOW_S", "Channel",
            "Recording", "Window", "PlausibilityWarning", "detect_conditions", "load_recording", "schedule_windows",
            "speed_segments"]
