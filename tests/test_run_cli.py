@@ -137,8 +137,9 @@ def test_bad_input_is_one_line_and_exit_2(workdir, cli):
     assert missing.returncode == 2 and "Traceback" not in missing.stderr
     lines = [ln for ln in missing.stderr.splitlines() if ln.startswith("thermodrift: error:")]
     assert len(lines) == 1 and "nope.csv" in lines[0]
-    bad_target = cli(workdir, "run", *TINY, "targets=[T_column]")
-    assert bad_target.returncode == 2 and "T_column" in bad_target.stderr and "Traceback" not in bad_target.stderr
+    bad_target = cli(workdir, "run", *TINY, "targets=[T_ambient]")  # an input (a temperature could be a target)
+    assert bad_target.returncode == 2 and "T_ambient" in bad_target.stderr and "Traceback" not in bad_target.stderr
+    assert "role ambient, an input" in bad_target.stderr
 
 
 def test_missing_recording_file_and_verb_errors_are_one_clean_line(workdir, cli):
