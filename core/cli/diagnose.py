@@ -36,9 +36,10 @@ def configure(parser: argparse.ArgumentParser) -> None:
     options.add_out(parser, "output folder", default="diagnosis")
     options.add_tracking_uri(parser, optional=True)
     parser.add_argument("--seed", type=int, default=0, help="seed of the block bootstrap (default 0)")
-    parser.add_argument("--alpha", type=float, default=0.01,
+    parser.add_argument("--alpha", type=float, default=None,
                         help="false-discovery level of the likelihood-ratio tests: Benjamini-Hochberg over each round's "
-                             "candidates, spent as alpha/2, alpha/4, ... over the rounds (default 0.01)")
+                             "candidates, spent as alpha/2, alpha/4, ... over the rounds (default 0.01); with a "
+                             "stochastic network (building_ti), the level of each forward step's LR test (default 0.05)")
     parser.add_argument("--max-rounds", type=int, default=3, help="forward-selection rounds at most (default 3)")
     parser.add_argument("--simulation", default=None, metavar="SIM",
                         help="the user's simulation of this recording (CSV, Parquet or XLSX): find what it leaves out")
@@ -48,9 +49,22 @@ def configure(parser: argparse.ArgumentParser) -> None:
                              "the speed; default: read from its traces)")
     parser.add_argument("--mechanisms", nargs="+", default=None, metavar="ID",
                         help="screen only these mechanisms (default: every registered one)")
+    parser.add_argument("--stochastic", action="store_true",
+                        help="stochastic grey-box identification (process noise, Kalman likelihood); implied by a "
+                             "stochastic network such as building_ti, whose structure is then forward-selected")
+    parser.add_argument("--targets", nargs="+", default=None, metavar="CHANNEL",
+                        help="with a stochastic network: the measured temperature (default: the only one)")
 
 
 def run(args: argparse.Namespace) -> int:
+    from thermodrift.core.physics.stochastic.rc import is_stochastic_spec
+
+    if args.network != "auto" and is_stochastic_spec(args.network):
+        return _select_structure(args)
+    if args.stochastic:
+        return _stochastic_machine(args)
+    if args.alpha is None:
+        args.alpha = 0.01
     from thermodrift.core.physics.diagnose import diagnose, report
     from thermodrift.core.physics.spec import load_network
     from thermodrift.core.recording import load_recording
@@ -100,3 +114,30 @@ def finding_line(finding: dict) -> str:
     shown = ", ".join(f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in values.items())
     return (f"  found {finding['mechanism']} (confidence {finding['confidence']:.2f}): "
             f"{shown or finding.get('label') or 'no parameter to estimate'}")
+
+
+def _select_structure(args: argparse.Namespace) -> int:
+    """Forward selection of a stochastic network's structure (a building from ``building_ti``)."""
+    from thermodrift.core.physics.stochastic import diagnosis, load
+    from thermodrift.core.recording import load_recording
+
+    if args.simulation:
+        raise InputError("--simulation takes the machine finder; a stochastic network selects its own structure")
+    alpha = 0.05 if args.alpha is None else args.alpha
+    if not 0 < alpha < 1:
+        raise InputError(f"--alpha must be in (0, 1), got {alpha}")
+    recording = load_recording(args.table, args.manifest, require=("temperature",))
+    net = load(args.network)
+    target = args.targets[0] if args.targets else None
+    sel, data, target = diagnosis.select(recording, net, seed=args.seed, alpha=alpha, target=target,
+                                         progress=lambda line: print(line, flush=True))
+    out = Path(args.out)
+    command = "thermodrift " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else ""
+    doc = diagnosis.report(sel, data, recording, net, target, out, command)
+    h = doc["htc"]
+    ci = f" [{h['ci95'][0]:.4g}, {h['ci95'][1]:.4g}]" if h["ci95"] else ""
+    print(f"selected {doc['selected']} ({' -> '.join(s['name'] for s in doc['selection_path'] if s['accepted'])}); "
+          f"HTC {h['value']:.4g}{ci} {h['unit']}; one-step residuals "
+          f"{'white' if doc['one_step']['whiteness']['white'] else 'not white'}; {doc['seconds']:.0f} s")
+    print(f"wrote {out}")
+    return 0

@@ -175,10 +175,11 @@ def one_thread():
     return threadpool_limits(1)
 
 
-def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: int = 400,
+def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: int = 300,
         information: bool = True, **options) -> Estimate:
     """Maximum-likelihood estimate of ``model`` on ``data`` (see the module docstring); ``options`` go to the
-    filter (``p0``, ``init_rows``, ``tol``)."""
+    filter (``p0``, ``init_rows``, ``tol``, ``transient``). The search stops when an iteration gains less than
+    1e-8 of the mean log-likelihood per sample (``ftol``) or after ``maxiter`` iterations per start."""
     params = model.parameters
     clock = time.perf_counter()
     n_evals = 0
@@ -199,7 +200,7 @@ def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: 
     with one_thread():
         for x0 in points:
             res = minimize(objective, np.clip(x0, -ETA_LIMIT, ETA_LIMIT), method="L-BFGS-B", bounds=bounds,
-                           options={"maxiter": maxiter})
+                           options={"maxiter": maxiter, "ftol": 1e-8})
             start_ll.append(-float(res.fun) / scale)
             if best is None or res.fun < best.fun:
                 best = res

@@ -84,10 +84,27 @@ def _whiteness(est: Estimate) -> dict:
     return whiteness.summary(est.filtered().standardized[:, 0])
 
 
+def _fit_one(job: tuple) -> Estimate:
+    model, data, seed, starts = job
+    return fit(model, data, seed=seed, starts=starts, information=False)
+
+
+def _fit_all(models: list[RCNetwork], data: Series, seed: int, starts: int, workers: int) -> list[Estimate]:
+    """Fit each model (in ``workers`` processes when more than one: the candidates of a round are independent,
+    and each fit is deterministic, so the result does not depend on ``workers``)."""
+    jobs = [(m, data, seed, starts) for m in models]
+    if workers <= 1 or len(jobs) <= 1:
+        return [_fit_one(j) for j in jobs]
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(min(workers, len(jobs))) as pool:
+        return list(pool.map(_fit_one, jobs))
+
+
 def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0, starts: int = 2,
-                   alpha: float = ALPHA, progress=None) -> Selection:
+                   alpha: float = ALPHA, progress=None, workers: int = 1) -> Selection:
     """Forward selection from ``net`` (the one-state model; see the module docstring). ``progress``: called
-    with a line of text per fitted candidate."""
+    with a line of text per fitted candidate; ``workers``: processes fitting a round's candidates."""
     from thermodrift.core.physics.stochastic.building import BuildingMechanism, rescaled
 
     if registry is None:
@@ -105,18 +122,19 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
     while True:
         scale = htc(current.estimate.model, current.estimate.values) / DEFAULT_HTC
         base = current.estimate.model.with_values(current.estimate.values)
-        tried = []
+        jobs = []
         for m in mechs:
             if not m.places(base):
                 continue
             ext = m().apply(base)
             new = {p.name for p in ext.params} - {p.name for p in base.params}
             start = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0)
-            ext = ext.with_values({k: v for k, v in start.values().items() if k in new})
-            e = fit(ext, data, seed=seed, starts=starts, information=False)
-            tried.append(e)
-            if progress:
-                progress(f"  {structure_name(ext)}: loglik {e.loglik:.1f} ({e.seconds:.1f} s)")
+            jobs.append(ext.with_values({k: v for k, v in start.values().items() if k in new}))
+        tried = _fit_all(jobs, data, seed, starts, workers)
+        if progress:
+            for e in tried:
+                progress(f"  {structure_name(e.model)}: loglik {e.loglik:.1f} ({e.n_evals} filter passes, "
+                         f"{e.seconds:.1f} s)")
         if not tried:
             break
         best = max(tried, key=lambda e: e.loglik)
