@@ -11,7 +11,7 @@ from scipy.stats import multivariate_normal
 
 from thermodrift.core.physics import stochastic as sto
 from thermodrift.core.physics.stochastic import kalman, whiteness
-from thermodrift.core.physics.stochastic.fit import Param
+from thermodrift.core.physics.stochastic.fit import Param, loglik
 from thermodrift.core.physics.stochastic.rc import RCNetwork
 
 A = np.array([[-0.5, 0.3], [0.2, -0.1]])
@@ -93,7 +93,7 @@ def test_fit_recovers_parameters_within_intervals_and_the_filter_is_white():
     assert not {"Ci", "Ria"} & set(est.unidentifiable)
     htc, (lo, hi) = est.derived(lambda v: 1.0 / v["Ria"])
     assert lo < 1 / 3.0 < hi and htc == pytest.approx(1 / est.values["Ria"])
-    assert est.loglik >= sto.fit.__globals__["loglik"](net, data, true) - 1e-6
+    assert est.loglik >= loglik(net, data, true) - 1e-6
     f = est.filtered()
     assert whiteness.summary(f.standardized[:, 0])["white"]
 

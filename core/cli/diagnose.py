@@ -20,6 +20,7 @@ TABLE --manifest M.yaml --out SIM.csv`` writes one) what is missing is found aga
 from __future__ import annotations
 
 import argparse
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -129,8 +130,10 @@ def _select_structure(args: argparse.Namespace) -> int:
     recording = load_recording(args.table, args.manifest, require=("temperature",))
     net = load(args.network)
     target = args.targets[0] if args.targets else None
+    workers = min(2, os.cpu_count() or 1)  # a round's candidates in parallel; the result does not depend on it
     sel, data, target = diagnosis.select(recording, net, seed=args.seed, alpha=alpha, target=target,
-                                         progress=lambda line: print(line, flush=True))
+                                         progress=lambda line: print(line, flush=True), workers=workers,
+                                         only=args.mechanisms)
     out = Path(args.out)
     command = "thermodrift " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else ""
     doc = diagnosis.report(sel, data, recording, net, target, out, command)
@@ -139,5 +142,31 @@ def _select_structure(args: argparse.Namespace) -> int:
     print(f"selected {doc['selected']} ({' -> '.join(s['name'] for s in doc['selection_path'] if s['accepted'])}); "
           f"HTC {h['value']:.4g}{ci} {h['unit']}; one-step residuals "
           f"{'white' if doc['one_step']['whiteness']['white'] else 'not white'}; {doc['seconds']:.0f} s")
+    print(f"wrote {out}")
+    return 0
+
+
+def _stochastic_machine(args: argparse.Namespace) -> int:
+    """Mechanisms by likelihood ratio on the innovations of a stochastic ``auto`` baseline."""
+    import json
+
+    from thermodrift.core.physics.stochastic import machine
+    from thermodrift.core.recording import load_recording
+
+    if args.simulation or args.network != "auto":
+        raise InputError("--stochastic on a machine starts from the auto baseline: leave out --simulation and "
+                         "--network")
+    alpha = 0.01 if args.alpha is None else args.alpha
+    if not 0 < alpha < 1:
+        raise InputError(f"--alpha must be in (0, 1), got {alpha}")
+    recording = load_recording(args.table, args.manifest, require=())
+    doc = machine.select_mechanisms(recording, seed=args.seed, alpha=alpha, max_rounds=args.max_rounds,
+                                    only=args.mechanisms, progress=lambda line: print(line, flush=True))
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    doc["command"] = "thermodrift " + " ".join(shlex.quote(a) for a in sys.argv[1:]) if sys.argv else ""
+    (out / "report.json").write_text(json.dumps(doc, indent=1, ensure_ascii=False, default=float) + "\n",
+                                     encoding="utf-8")
+    print(doc["verdict"])
     print(f"wrote {out}")
     return 0

@@ -70,12 +70,13 @@ def _htc_unit(recording, net: RCNetwork) -> str:
 
 
 def select(recording, net: RCNetwork, *, seed: int = 0, alpha: float = ALPHA, starts: int = 2,
-           target: str | None = None, progress=None) -> tuple[Selection, Series, str]:
+           target: str | None = None, progress=None, workers: int = 1, only=None) -> tuple[Selection, Series, str]:
     """Forward selection on a recording (see :func:`.selection.forward_select`)."""
     data, target = series_of(recording, net, target)
     if len(data) < 50:
         raise InputError(f"the recording has {len(data)} rows; stochastic identification needs at least 50")
-    return forward_select(net, data, seed=seed, starts=starts, alpha=alpha, progress=progress), data, target
+    return forward_select(net, data, seed=seed, starts=starts, alpha=alpha, progress=progress, workers=workers,
+                          only=only), data, target
 
 
 def report(sel: Selection, data: Series, recording, net: RCNetwork, target: str, out: Path,

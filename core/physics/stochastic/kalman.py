@@ -1,25 +1,24 @@
 """The continuous–discrete Kalman filter over an exactly discretised linear SDE: innovations, their covariance
 and the log-likelihood, and k-step predictions.
 
-Per sample: innovation e_k = y_k − C x_k|k−1 − D u_k with covariance S_k = C P_k|k−1 Cᵀ + R, log-likelihood
-Σ_k −½ (p log 2π + log det S_k + e_kᵀ S_k⁻¹ e_k). The steps are the compensator's (one home:
+Per sample: innovation e_k = y_k − C x_k|k−1 − D u_k with covariance S_k = C P_k|k−1 Cᵀ + R, log-likelihood Σ_k −½
+(p log 2π + log det S_k + e_kᵀ S_k⁻¹ e_k). The steps are the compensator's (one home:
 :mod:`thermodrift.compensator.physics`): within a run of samples that share a step (level, Δt) the filter runs
 time-varying (:func:`kalman_update`) until the predicted covariance reaches the stationary one of the discrete
-Riccati equation (relative difference below ``tol``) or over the first ``transient`` samples at most, then as the stationary
-filter (:func:`steady_filter`, the
-filtered state x_k = F x_{k−1} + G u_{k−1} + K (y_k − D u_k)), a linear recursion that the project's propagator
-runs in C (:func:`~thermodrift.core.physics.integrate.propagate`). A regularly sampled building is one such
-run: the likelihood is exact but for slow modes whose covariance has not settled after ``transient`` samples
-(200 by default, 50 h at 15 min), and costs a few milliseconds for 7,000 samples.
+Riccati equation (relative difference below ``tol``) or over the first ``transient`` samples at most, then as the
+stationary filter (:func:`steady_filter`, the filtered state x_k = F x_{k−1} + G u_{k−1} + K (y_k − D u_k)), a
+linear recursion that the project's propagator runs in C (:func:`~thermodrift.core.physics.integrate.propagate`). A
+regularly sampled building is one such run: the likelihood is exact but for slow modes whose covariance has not
+settled after ``transient`` samples (200 by default, 50 h at 15 min), and costs a few milliseconds for 7,000
+samples.
 
-Initial state: the equilibrium at the mean inputs of the first ``init_rows`` samples, shifted so that the
-measured states read the first measurement, with covariance ``p0²·I`` (state units²).
+Initial state: the equilibrium at the mean inputs of the first ``init_rows`` samples, shifted so that the measured
+states read the first measurement, with covariance ``p0²·I`` (state units²).
 
-Why not statsmodels' state-space MLE or filterpy: both work in discrete time on given matrices; the
-continuous-time parameterisation with exact, Van-Loan discretisation per parameter vector, the per-level steps
-of the machine networks and the shared compensator step are what this module is, and neither library would
-remove them (statsmodels would add a dependency to run the loop that the compensator's step already runs).
-"""
+Why not statsmodels' state-space MLE or filterpy: both work in discrete time on given matrices; the continuous-time
+parameterisation with exact, Van-Loan discretisation per parameter vector, the per-level steps of the machine
+networks and the shared compensator step are what this module is, and neither library would remove them (statsmodels
+would add a dependency to run the loop that the compensator's step already runs)."""
 
 from __future__ import annotations
 

@@ -1,17 +1,16 @@
-"""A machine's thermal network (the ``auto`` baseline or a spec) as a stochastic grey-box model: process noise on
-every node, measurement noise per channel, the network's free parameters estimated by maximum likelihood through
-the Kalman filter (``calibrate --stochastic``), and mechanisms tested by likelihood ratio (``diagnose
---stochastic``).
+"""A machine's thermal network (the ``auto`` baseline or a spec) as a stochastic grey-box model: process noise on every
+node, measurement noise per channel, the network's free parameters estimated by maximum likelihood through the
+Kalman filter (``calibrate --stochastic``), and mechanisms tested by likelihood ratio (``diagnose --stochastic``).
 
 States: the network's nodes (°C); time in hours; levels: the spindle-speed levels (10 rpm, as the state observer
 takes them); inputs: the network's [1, ambient, coolant, signal sources…] plus (n/n_ref)² for the centrifugal
 growth. Parameters of the network enter as ``free`` (FreeParameters: their own values, bounds and units, as
 mechanisms declare them) or as ``factors`` (name → network paths: one multiplier ``k.<name>`` of the paths' current
-values, start 1, within [0.01, 100]: how a calibrated network is refined). Outputs: the lag-free temperature sensors reading nodes (their offset as a constant) and the displacement
-sensors (Σ s_i (T_i − T_i,0) + offset + centrifugal, with T_0 the network's rest state at the first sample).
-Lagged temperature sensors are left out of the likelihood (their lag is not a state here). Parameters: the free
-parameters plus ``sigma.<node>`` (K/√h) and ``r.<channel>`` (K or µm).
-"""
+values, start 1, within [0.01, 100]: how a calibrated network is refined). Outputs: the lag-free temperature sensors
+reading nodes (their offset as a constant) and the displacement sensors (Σ s_i (T_i − T_i,0) + offset + centrifugal,
+with T_0 the network's rest state at the first sample). Lagged temperature sensors are left out of the likelihood
+(their lag is not a state here). Parameters: the free parameters plus ``sigma.<node>`` (K/√h) and ``r.<channel>`` (K
+or µm)."""
 
 from __future__ import annotations
 
@@ -105,3 +104,99 @@ class NetworkModel:
         r = np.array([values[f"r.{c}"] for c in self.channels])
         return System(A, B, np.array(rows), D, sigma, r)
 
+
+
+def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_rounds: int = 3,
+                      only: Sequence[str] | None = None, hidden_nodes: int = 2, registry=None,
+                      progress=None) -> dict:
+    """``diagnose --stochastic`` on a machine recording: the ``auto`` baseline calibrated by output error, then
+    refined as a stochastic model (one multiplier per calibrated parameter, σ per node, r per channel); each round
+    every registered machine mechanism at each of its places (two at most) is fitted with its own parameters
+    free and the rest held at the current estimates, and the best by likelihood is accepted when its LR test
+    passes at ``alpha`` / (candidates fitted) (Bonferroni). The accepted one is then refitted with every parameter
+    free, and the next round starts from it. Returns the report (JSON-ready): ``baseline``, ``selection_path``,
+    ``findings`` (mechanism, place, parameters, lr, df, p_value), ``rejected`` (mechanism, reason) and
+    ``verdict``."""
+    from scipy.stats import chi2
+
+    from thermodrift.core.errors import InputError
+    from thermodrift.core.physics import calibration as cal
+    from thermodrift.core.physics.stochastic.building import BuildingMechanism
+    from thermodrift.core.physics.stochastic.fit import fit
+
+    if registry is None:
+        from thermodrift.core import registry as registry_module
+
+        registry = registry_module.default()
+    say = progress or (lambda line: None)
+    oe = cal.calibrate(recording, None, hidden_nodes=hidden_nodes, starts=1, seed=seed)
+    factors = {e.name: tuple(e.paths) for e in oe.estimates}
+    model = NetworkModel(oe.network, recording, factors=factors)
+    current = fit(model, model.data, seed=seed, starts=1, information=False)
+    say(f"baseline: loglik {current.loglik:.1f} ({current.n_params} parameters)")
+    path = [{"name": "baseline", "loglik": current.loglik, "n_params": current.n_params}]
+    findings, rejected, net, free = [], {}, oe.network, []
+    ids = [m for m in registry.names("mechanism") if only is None or m in only]
+    for _ in range(max_rounds):
+        fitted = []
+        for mid in ids:
+            cls = registry.get("mechanism", mid).factory
+            if issubclass(cls, BuildingMechanism) or any(f["mechanism"] == mid for f in findings):
+                continue
+            why = cls.missing_drivers(recording)
+            places = [] if why else cls.places(net)
+            if why or not places:
+                rejected[mid] = f"skipped: {why}" if why else (cls.unplaced(net) or "skipped: no place in the network")
+                continue
+            for options in places[:2]:
+                try:
+                    net2, new = cls(**options).declare(net)
+                except InputError as err:
+                    rejected[mid] = f"skipped: {err}"
+                    continue
+                m2 = NetworkModel(net2, recording, free=[*free, *new], factors=factors, start=current.values)
+                e2 = fit(Frozen(m2, current.values), m2.data, seed=seed, starts=1, information=False)
+                fitted.append((mid, options, new, m2, e2))
+                say(f"  {mid} {options or ''}: loglik {e2.loglik:.1f}")
+        if not fitted:
+            break
+        mid, options, new, m2, e2 = max(fitted, key=lambda c: c[4].loglik)
+        df = len(new)
+        lr = max(2.0 * (e2.loglik - current.loglik), 0.0)
+        p = float(chi2.sf(lr, df))
+        level = alpha / len(fitted)
+        step = {"name": mid, "place": options, "loglik": e2.loglik, "n_params": current.n_params + df, "lr": lr,
+                "df": df, "p_value": p, "level": level, "accepted": p < level}
+        path.append(step)
+        for other, *_ in fitted:
+            if other != mid:
+                rejected.setdefault(other, f"explains less than {mid} (likelihood)")
+        if p >= level:
+            rejected[mid] = f"not significant: LR {lr:.1f} on {df} parameter(s), p = {p:.3g} ≥ {level:.3g}"
+            break
+        rejected.pop(mid, None)
+        m2 = NetworkModel(m2.network, recording, free=[*free, *new], factors=factors,
+                          start={**current.values, **e2.values})
+        current = fit(m2, m2.data, seed=seed, starts=1, information=False)
+        net, free = m2.network, [*free, *new]
+        findings.append({"mechanism": mid, "place": options, "lr": lr, "df": df, "p_value": p,
+                         "parameters": {f.name: current.values[f.name] for f in new}})
+    verdict = ("missing: " + ", ".join(f["mechanism"] for f in findings)) if findings else "none: no mechanism " \
+        "raises the innovations likelihood significantly"
+    return {"kind": "stochastic_mechanisms", "baseline": {"network": oe.network.name, "loglik": path[0]["loglik"],
+                                                         "n_params": path[0]["n_params"], "channels": model.channels},
+            "selection_path": path, "findings": findings,
+            "rejected": [{"mechanism": k, "reason": v} for k, v in rejected.items()], "verdict": verdict,
+            "alpha": alpha}
+
+
+class Frozen:
+    """``model`` with the parameters named in ``fixed`` held at those values (the others searched)."""
+
+    def __init__(self, model, fixed: Mapping[str, float]):
+        self.name, self.model = model.name, model
+        self.fixed = {p.name: fixed[p.name] for p in model.parameters if p.name in fixed}
+        self.parameters = tuple(p for p in model.parameters if p.name not in self.fixed)
+
+    def system(self, values: Mapping[str, float]) -> System:
+        return self.model.system({**self.fixed, **values})

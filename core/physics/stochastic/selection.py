@@ -4,8 +4,9 @@ by likelihood and accepts it when the likelihood-ratio test against the current 
 ``alpha`` (default 0.05, the field's usual level): LR = 2 (ℓ₁ − ℓ₀) ~ χ²(k₁ − k₀). Otherwise it stops.
 
 Starts: the one-state model from a least-squares fit of its Euler discretisation (ΔTi/Δt on Ta − Ti, Ps and the
-heating), so the search begins at the recording's own heat scale; each extension from the current model's
-estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`), with
+heating), so the search begins at the recording's own heat and irradiance scales; each extension from the current
+model's estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`; a new aperture
+at the interior aperture's estimate), with
 ``starts − 1`` more points drawn from ``seed``.
 """
 
@@ -75,9 +76,10 @@ def ti_start(net: RCNetwork, data: Series) -> RCNetwork:
         return net
     ci = 1.0 / c
     values = {"Ci": ci, "Ria": 1.0 / (a * ci), "sigma_ti": float(np.std(rate - X @ coef) * math.sqrt(np.median(dt)))}
-    if solar is not None and coef[2] > 0:
-        values["Aw"] = coef[2] * ci
-    return net.with_values(values)
+    if solar is not None:  # the regression's aperture, else one whose mean gain is 1 % of the mean heating
+        ps, q = float(np.mean(u[:, solar])), float(np.mean(u[:, phi]))
+        values["Aw"] = coef[2] * ci if coef[2] > 0 else (0.01 * q / ps if ps > 0 and q > 0 else 0.0)
+    return net.with_values({k: v for k, v in values.items() if v > 0})
 
 
 def _whiteness(est: Estimate) -> dict:
@@ -102,16 +104,17 @@ def _fit_all(models: list[RCNetwork], data: Series, seed: int, starts: int, work
 
 
 def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0, starts: int = 2,
-                   alpha: float = ALPHA, progress=None, workers: int = 1) -> Selection:
+                   alpha: float = ALPHA, progress=None, workers: int = 1, only=None) -> Selection:
     """Forward selection from ``net`` (the one-state model; see the module docstring). ``progress``: called
-    with a line of text per fitted candidate; ``workers``: processes fitting a round's candidates."""
+    with a line of text per fitted candidate; ``workers``: processes fitting a round's candidates; ``only``:
+    mechanism ids to consider (default: every registered building mechanism)."""
     from thermodrift.core.physics.stochastic.building import BuildingMechanism, rescaled
 
     if registry is None:
         from thermodrift.core import registry as registry_module
 
         registry = registry_module.default()
-    mechs = [registry.get("mechanism", m).factory for m in registry.names("mechanism")]
+    mechs = [registry.get("mechanism", m).factory for m in registry.names("mechanism") if only is None or m in only]
     mechs = [m for m in mechs if isinstance(m, type) and issubclass(m, BuildingMechanism)]
     clock = time.perf_counter()
     est = fit(ti_start(net, data), data, seed=seed, starts=starts, information=False)
@@ -129,7 +132,10 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
             ext = m().apply(base)
             new = {p.name for p in ext.params} - {p.name for p in base.params}
             start = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0)
-            jobs.append(ext.with_values({k: v for k, v in start.values().items() if k in new}))
+            values = {k: v for k, v in start.values().items() if k in new}
+            if "Aw" in base.values():  # apertures start at the interior's: irradiance units vary (W/m², kW/m²)
+                values.update({k: base.values()["Aw"] for k in new if k.startswith("A")})
+            jobs.append(ext.with_values(values))
         tried = _fit_all(jobs, data, seed, starts, workers)
         if progress:
             for e in tried:

@@ -1,0 +1,66 @@
+"""The stochastic engine on machine networks: the network as an SDE over its speed levels, and ``diagnose
+--stochastic`` naming a planted mechanism by likelihood ratio."""
+
+import json
+
+import numpy as np
+import pytest
+
+from thermodrift.core import physics
+from thermodrift.core.physics import scenarios
+from thermodrift.core.physics.scenarios import Block
+from thermodrift.core.physics.stochastic import machine
+from thermodrift.core.physics.stochastic.fit import fit, loglik
+from thermodrift.core.physics.synthetic import synthesize
+
+SPEC = {
+    "name": "two", "reference_speed_rpm": 6000,
+    "nodes": {"a": {"capacity_J_K": 5000, "group": "bearing"}, "b": {"capacity_J_K": 20000, "group": "housing"}},
+    "edges": [{"a": "a", "b": "b", "G_W_K": 3.0}, {"a": "b", "b": "ambient", "G_W_K": 6.0, "kind": "convection"},
+              {"a": "a", "b": "ambient", "G_W_K": 0.5, "kind": "convection"}],
+    "sources": {"heat": {"type": "bearing", "node": "a", "viscous_W": 60.0}},
+    "sensors": {"T_a": {"node": "a", "noise_K": 0.02}, "T_b": {"node": "b", "noise_K": 0.02}},
+}
+
+
+def _recording(seed=0, net=None):
+    net = net or physics.network_from_dict(SPEC)
+    scen = scenarios.blocks([Block(0.5), Block(2, 3000), Block(1.5), Block(2, 6000), Block(2)], 120.0)
+    return net, synthesize(net, scen, seed).recording
+
+
+def test_the_network_sde_prefers_the_true_conductance_and_estimates_its_noise():
+    net, rec = _recording()
+    model = machine.NetworkModel(net, rec, factors={"G_ab": ("edges.a-b.G_W_K",)})
+    assert len(model.levels) == 3 and model.channels == ["T_a", "T_b"]
+    start = {p.name: p.value for p in model.parameters}
+    ll = loglik(model, model.data, start)
+    assert ll > loglik(model, model.data, {**start, "k.G_ab": 2.0}) + 50
+    est = fit(machine.Frozen(model, {"k.G_ab": 1.0}), model.data, seed=0, starts=1)
+    assert est.loglik >= ll
+    for c in ("T_a", "T_b"):  # the recording's sensor noise is 0.02 K (plus Pt100 offsets the model does not know)
+        lo, hi = est.intervals[f"r.{c}"]
+        assert 0.01 < lo < est.values[f"r.{c}"] < hi < 0.04
+
+
+def test_diagnose_stochastic_writes_its_selection_report(tmp_path, cli):
+    """The door on a machine recording: the auto baseline refined as a stochastic model, then each mechanism by
+    likelihood ratio; the report states the path, the findings and why every other mechanism was left out."""
+    spec = {**SPEC, "sources": {**SPEC["sources"], "cut": {"type": "cutting", "split": {"a": 1.0}, "fraction": 0.1}}}
+    scen = scenarios.blocks([Block(0.5), Block(2, 3000, cutting_power_W=800), Block(1), Block(2, 3000),
+                             Block(1.5, 0, cutting_power_W=800), Block(2)], 120.0)
+    rec = synthesize(physics.network_from_dict(spec), scen, 1).recording
+    table, manifest = tmp_path / "r.csv", tmp_path / "r.yaml"
+    rec.write(table, manifest)
+    out = tmp_path / "dx"
+    proc = cli(tmp_path, "diagnose", str(table), "--manifest", str(manifest), "--stochastic", "--mechanisms",
+               "cutting_heat", "axis_drive_heat", "--max-rounds", "1", "--out", str(out), timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    doc = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    assert doc["kind"] == "stochastic_mechanisms" and np.isfinite(doc["baseline"]["loglik"])
+    step = doc["selection_path"][1]
+    assert step["name"] == "cutting_heat" and step["df"] == 1 and step["level"] == pytest.approx(0.01 / 2)
+    assert step["accepted"] == bool(doc["findings"]) == (step["p_value"] < step["level"])
+    reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
+    assert reasons["axis_drive_heat"].startswith("skipped: ")  # no axis velocity channel
+    assert doc["verdict"] in proc.stdout
