@@ -13,6 +13,7 @@ class BuildingAeRia(BuildingMechanism):
     id = "building_aeria"
     summary = "the envelope's solar aperture Ae (solar gain into the envelope) plus a direct gain"
     part = AERIA
+    drivers = ("solar_irradiance",)
     parameters = (aperture("Ae", 5.0, "effective solar aperture of the envelope"),
                   resistance("Ria", 20.0, "interior to outdoor air beside the envelope"))
     signature = "the envelope warms in the sun and some heat leaves the interior directly, not through the envelope"

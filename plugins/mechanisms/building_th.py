@@ -13,6 +13,7 @@ class BuildingTh(BuildingMechanism):
     id = "building_th"
     summary = "the heater Th, a capacity the heating enters before the interior air"
     part = "Th"
+    drivers = ("heating",)
     parameters = (capacity("Ch", 0.2, "heater and its water"),
                   resistance("Rih", 0.5, "heater to interior"),
                   sigma("Th", 0.5))

@@ -13,6 +13,7 @@ class BuildingTi(BuildingMechanism):
     id = "building_ti"
     summary = "the interior state Ti, the one-state building model"
     part = "Ti"
+    drivers = ("ambient", "heating")
     parameters = (capacity("Ci", 1.0, "interior air, furniture and inner surfaces"),
                   resistance("Ria", 5.0, "interior to outdoor air"),
                   aperture("Aw", 5.0, "effective window area: solar gain into Ti"),

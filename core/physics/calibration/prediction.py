@@ -4,12 +4,12 @@ corrects the simulated state with the measured temperatures (:class:`StateObserv
 The observer is a steady-state Kalman filter over the network, per operating level (speed, coolant flow, step):
 x⁻ = Φ x + Γ u (the engine's step matrices, inputs held over the step), x = x⁻ + K (y − offsets − C x⁻), where
 C maps nodes to the temperature sensors it uses (lag-free sensors reading nodes), K the stationary gain of the
-discrete Riccati equation (the compensator's Kalman step,
-:func:`thermodrift.compensator.physics.steady_filter`) with measurement noise σ² per sensor and process noise ``process_K²·dt/τ`` per node
-(``τ`` the node's own time constant C/ΣG, so ``process_K`` is the model error over one time constant). Unobserved
-nodes (the auto network's hidden nodes) run open loop. Over a block of steps at one level the filter is linear
-and time-invariant, so a batch runs through the engine's propagator (:func:`integrate.propagate`) and a
-single row is one matrix-vector step — both give the same numbers to rounding.
+discrete Riccati equation (the compensator's Kalman step, :func:`thermodrift.compensator.physics.steady_filter`)
+with measurement noise σ² per sensor and process noise ``process_K²·dt/τ`` per node (``τ`` the node's own time
+constant C/ΣG, so ``process_K`` is the model error over one time constant). Unobserved nodes (the auto network's
+hidden nodes) run open loop. Over a block of steps at one level the filter is linear and time-invariant, so a
+batch runs through the engine's propagator (:func:`integrate.propagate`) and a single row is one matrix-vector
+step — both give the same numbers to rounding.
 """
 
 from __future__ import annotations
