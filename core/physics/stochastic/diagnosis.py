@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
+from thermodrift.core import metrics
 from thermodrift.core.errors import InputError
 from thermodrift.core.physics.stochastic import kalman, whiteness
 from thermodrift.core.physics.stochastic.building import htc
@@ -90,14 +91,15 @@ def report(sel: Selection, data: Series, recording, net: RCNetwork, target: str,
     yk = kalman.k_step(est.system, data, f, k)
     first = sel.path[0].estimate
     yk1 = kalman.k_step(first.system, data, first.filtered(), k)
-    rmse = lambda p: float(np.sqrt(np.nanmean((p[:, 0] - data.y[:, 0]) ** 2)))  # noqa: E731
+    ok = ~np.isnan(yk[:, 0])
+    rmse = lambda p: float(metrics.rmse(data.y[ok, 0], p[ok, 0]))  # noqa: E731  (the first k rows have none)
     value, ci = est.derived(lambda v: htc(est.model, v))
     doc = {
         "kind": "stochastic_selection", "network": net.name, "target": target, "alpha": sel.alpha,
         "selection_path": [s.record() for s in sel.path], "selected": sel.selected.name,
         "estimates": est.table(), "unidentifiable": est.unidentifiable,
         "htc": {"value": value, "ci95": list(ci) if ci else None, "unit": _htc_unit(recording, net)},
-        "one_step": {"rmse_K": float(np.sqrt(np.mean(f.e[:, 0] ** 2))),
+        "one_step": {"rmse_K": float(metrics.rms(f.e[:, 0])),
                      "whiteness": whiteness.summary(f.standardized[:, 0])},
         "k_step": {"k": k, "horizon_h": k * dt, "rmse_K": rmse(yk), "rmse_K_one_state": rmse(yk1)},
         "units": {"time": f"{net.time_unit_s:g} s", "temperature": "degC",
