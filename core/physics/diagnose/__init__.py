@@ -271,20 +271,27 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         test = {"test": "likelihood ratio on AR-whitened residuals of the judged channels (noise model from the "
                         "baseline's residual), Benjamini–Hochberg over the round's candidates", "level": level,
                 "candidates": m}
-        ok = [rule.passes(f, j, d, decisive) for f, j, d in zip(fitted, judged, discovered)]
+        # structural misfit (held out, before any mechanism: :func:`.adequacy.heldout_misfit`) raises the bar
+        structural = adequate.get("heldout_structural", {})
+        bar = bool(structural.get("structural"))
+        ok = [rule.passes(f, j, d, decisive, bar) for f, j, d in zip(fitted, judged, discovered)]
+        withheld = [bar and not o and rule.passes(f, j, d, decisive) for f, j, d, o in
+                    zip(fitted, judged, discovered, ok)]
+        why = [rule.why_not(f, j, d, level, m, structural["rms_over_noise"] if w else None)
+               for f, j, d, w in zip(fitted, judged, discovered, withheld)]
         trace += [{"round": round_ + 1, "candidate": f.candidate.label, "screen_share": f.candidate.dsse_bal / max(
             screen.sse0_bal, 1e-300), "fit_share": f.dsse_bal / max(screen.sse0_bal, 1e-300), "lr": f.dsse,
             "p_value": f.p_value, "blocks_improved": f.candidate.cv_wins, "validation_gain": f.val_bal,
             "validation_gain_displacement": f.val_disp, "validation_drift_baseline": f.val_disp0,
             "discovered": bool(d), "level": level, "validation_gain_per_sample": f.val_bal / max(len(val_rows), 1),
-            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": o,
-            **j.as_dict()} for f, j, d, o in zip(fitted, judged, discovered, ok)]
+            "remaining_block_spread": f.spread, "outside": bool(f.outside), "passed": o, "withheld_structural": w,
+            **j.as_dict()} for f, j, d, o, w in zip(fitted, judged, discovered, ok, withheld)]
         # a candidate judged on the drift channels comes first: the drift is what a compensation predicts
         lead = [i for i, o in enumerate(ok) if o and judged[i].group == "drift"] or [i for i, o in enumerate(ok) if o]
         passing = [fitted[i] for i in lead]
         if not passing:
-            for f, j, d in zip(fitted, judged, discovered):
-                rejected.append({"mechanism": f.candidate.mechanism, "reason": rule.why_not(f, j, d, level, m)})
+            for f, reason in zip(fitted, why):
+                rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
             break
         by_judged = []
         for i in lead:
@@ -299,6 +306,10 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         win = dataclasses.replace(selection.identified(win, fit_rec, fit_evaluations), dsse=jw.statistic,
                                   p_value=jw.p_value)
         test = {**test, "test": f"{test['test']}; judged on the {jw.group} channels"}
+        if bar:  # named on a structurally misfit baseline: say that it accounts for the misfit
+            test = {**test, "test": f"{test['test']}; the baseline's held-out drift misfit is structural "
+                                    f"({structural['rms_over_noise']:.3g} σ RMS) and it leaves {jw.left_rms():.3g} σ "
+                                    f"there, within {adequacy.HELD_OUT_RATIO:g} σ"}
         if not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
             test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
                                     "the condition blocks, Bonferroni over the fitted candidates at the round's "
@@ -312,10 +323,9 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
                              "reason": f"not identifiable from this data: explains the residual as well as "
                                        f"{win.candidate.mechanism} (within {EQUIVALENT:.0%}); "
                                        f"{_experiment(win.candidate, f.candidate)}"})
-        for f, d in zip(fitted, discovered):
+        for f, reason_not in zip(fitted, why):
             if f is not win and f not in rivals and f.candidate is not win.candidate:
-                j = judged[fitted.index(f)]
-                reason = (rule.why_not(f, j, d, level, m) if f not in passing else
+                reason = (reason_not if f not in passing else
                           f"explains less than {win.candidate.mechanism} "
                           f"({f.dsse_bal / max(win.dsse_bal, 1e-300):.0%} of its gain)")
                 rejected.append({"mechanism": f.candidate.mechanism, "reason": reason})
