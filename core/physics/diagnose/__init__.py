@@ -309,7 +309,7 @@ def diagnose(recording, network: Network | None = None, *, registry=None, seed: 
         if bar:  # named on a structurally misfit baseline: say that it accounts for the misfit
             test = {**test, "test": f"{test['test']}; the baseline's held-out drift misfit is structural "
                                     f"({structural['rms_over_noise']:.3g} σ RMS) and it leaves {jw.left_rms():.3g} σ "
-                                    f"there, within {adequacy.HELD_OUT_RATIO:g} σ"}
+                                    f"there, within {adequacy.HELD_OUT_RATIO:g} σ and {rule.EXCESS_SHARE:.0%} of the excess removed"}
         if not jw.three_lines(dw):  # it passed by its decisive held-out gain (:func:`.rule.passes`)
             test = {**test, "test": "held-out gain over the standard error of the block spread, a t statistic over "
                                     "the condition blocks, Bonferroni over the fitted candidates at the round's "

@@ -38,8 +38,9 @@ tested, :func:`.adequacy.heldout_misfit`), any flexible term soaks up part of th
 becomes a proxy (on machines the baseline cannot represent, a centrifugal step passed all of them on a quarter of
 the null recordings). There a candidate is named only when its evidence is decisive: besides the tests above,
 fitted without the validation block it leaves no more than :data:`.adequacy.HELD_OUT_RATIO` σ (RMS) there on its
-judged channels (:meth:`Judged.accounts`). A mechanism that is what is missing accounts for the misfit; a proxy
-shaves part of it and leaves it structural. Otherwise the report says it cannot tell, with that reason.
+judged channels, and it removes at least :data:`EXCESS_SHARE` of the baseline's mean square there above the noise's
+(:meth:`Judged.accounts`). A mechanism that is what is missing accounts for the misfit (the main part of it); a
+proxy shaves part of it and leaves it structural. Otherwise the report says it cannot tell, with that reason.
 """
 
 from __future__ import annotations
@@ -57,6 +58,7 @@ GUARD_SHARE = 0.10  # the guarding channels may get this much worse on the held-
 GUARD_Z = 2.0       # ... or this many standard errors of their block spread, whichever is larger
 MIN_WINS = 0.5      # share of condition blocks the cross-validated gain must improve
 CV_LEVEL = 0.10     # one-sided level of the t-test that the per-block cross-validated gain is positive
+EXCESS_SHARE = 0.5  # on a structurally misfit baseline: the share of its held-out excess over noise to remove
 
 
 @dataclass
@@ -109,8 +111,12 @@ class Judged:
         return float(np.sqrt(max(self.val_base - self.val_gain, 0.0) / n))
 
     def accounts(self) -> bool:
-        """It accounts for a structural misfit: what it leaves held out is within :data:`HELD_OUT_RATIO` σ."""
-        return self.val_gain > 0 and self.left_rms() <= HELD_OUT_RATIO
+        """It accounts for a structural misfit: what it leaves held out is within :data:`HELD_OUT_RATIO` σ (RMS),
+        and it removes at least :data:`EXCESS_SHARE` of the baseline's mean square there above the noise's."""
+        n = max(self.n_val, 1) * max(int(np.sum(self.channels)) if self.channels is not None else 1, 1)
+        excess = self.val_base / n - 1.0
+        return (self.val_gain > 0 and self.left_rms() <= HELD_OUT_RATIO
+                and self.val_gain / n >= EXCESS_SHARE * excess)
 
     def guarded(self) -> bool:
         slack = max(GUARD_SHARE * self.guard_base, GUARD_Z * self.guard_spread * max(self.n_val, 1))
@@ -195,7 +201,8 @@ def why_not(f, j: Judged, discovered: bool, level: float, m: int, structural: fl
     if structural is not None:
         return (f"cannot tell: the baseline's misfit is structural (held-out drift RMS {structural:.3g} σ, over "
                 f"{HELD_OUT_RATIO:g} σ, before any mechanism), and fitted without the inner validation block this "
-                f"mechanism still leaves {j.left_rms():.3g} σ (RMS) there on its {where} channels: it shaves the "
+                f"mechanism still leaves {j.left_rms():.3g} σ (RMS) there on its {where} channels (it must leave "
+                f"within {HELD_OUT_RATIO:g} σ and remove {EXCESS_SHARE:.0%} of the excess over noise): it shaves the "
                 "misfit, it does not account for it, so the evidence is not decisive")
     if j.statistic <= 0:
         return f"re-simulated fit does not lower the (whitened) misfit of the {where} channels"
