@@ -79,3 +79,14 @@ def test_a_mechanism_that_accounts_for_a_structural_misfit_is_still_named():
     truth = _candidate(measured, wrong, 1.0)  # explains the swing: leaves the noise
     named, misfit, j = _decide(measured, wrong, truth)
     assert misfit["structural"] and named and j.left_rms() < 1.3
+
+
+def test_a_candidate_that_shaves_a_marginal_structural_misfit_is_withheld():
+    rng = np.random.default_rng(2)
+    measured = _measured(rng)
+    wrong = _baseline(measured, 0.5)  # misses half the swing: held-out RMS just over 2 σ
+    shave = _candidate(measured, wrong, 0.15)  # leaves under 2 σ but removes under half the excess over noise
+    named, misfit, j = _decide(measured, wrong, shave)
+    assert misfit["structural"] and misfit["rms_over_noise"] < 3.0
+    assert j.left_rms() <= adequacy.HELD_OUT_RATIO and rule.passes(shave, j, True)
+    assert not named
