@@ -18,7 +18,11 @@ def test_mechanisms_declare_the_free_parameter_type_calibration_searches():
     net = load_network("demo_spindle")
     for name in registry.names("mechanism"):
         cls = registry.get("mechanism", name).factory
-        mech = cls(**cls.places(net)[0])
+        places = cls.places(net)
+        if not places:  # the building RC library (and an outside mechanism) may have no place in a spindle
+            assert name.startswith("building_") or registry.get("mechanism", name).origin != "thermodrift", name
+            continue
+        mech = cls(**places[0])
         _, free = mech.declare(net)
         assert free and all(type(fp) is calibration.FreeParameter for fp in free), name
 
