@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from thermodrift.core.metrics import rmse
+from thermodrift.core.metrics import rms, rmse
 from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose.windows import condition_blocks
 from thermodrift.core.physics.network import Edge, Network, Node, TemperatureSensor
@@ -176,5 +176,5 @@ def heldout_misfit(kinds: list[str], sigma: np.ndarray, measured: np.ndarray, va
     if not len(val_rows) or not disp.any():
         return {"rms_over_noise": None, "threshold": HELD_OUT_RATIO, "structural": False}
     z = ((measured - val_readings) / sigma)[val_rows][:, disp]
-    ratio = float(np.sqrt(np.mean(z ** 2)))
+    ratio = float(rms(z))
     return {"rms_over_noise": round(ratio, 3), "threshold": HELD_OUT_RATIO, "structural": ratio > HELD_OUT_RATIO}
