@@ -198,15 +198,7 @@ def fl_cases(data: Path, seed: int, done: dict | None = None, results: Path | No
     manifest = HERE.parent / "plugins" / "datasets" / "fl_thermal.yaml"
     rec = load_recording(data / "data.xlsx", manifest)
     done = done or {}
-    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
-    specs = [("fl_thermal (plain)", {}, {}, None, None)]
-    for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
-        control = "fl_thermal (plain)"
-        if case.added:
-            control = f"fl_thermal + {', '.join(case.added)} (control)"
-            specs.append((control, case.added, {}, None, None))
-        specs.append((f"fl_thermal + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift,
-                      case.mechanism, control))
+    specs = fl_semi.case_specs(rec, seed)
     if part:
         k, n = (int(v) for v in part.split("/"))
         specs = specs[k - 1::n]

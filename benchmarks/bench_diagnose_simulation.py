@@ -102,15 +102,7 @@ def fl_cases(data: Path, seed: int, keep: Path | None = None) -> list[dict]:
             sim.to_csv(keep)
         print(f"FL_THERMAL: auto network calibrated on the plain recording in {time.perf_counter() - start:.0f} s",
               file=sys.stderr, flush=True)
-    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
-    specs = [("fl_thermal (plain)", {}, {}, None, None)]
-    for case in fl_semi.plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
-        control = "fl_thermal (plain)"
-        if case.added:
-            control = f"fl_thermal + {', '.join(case.added)} (control)"
-            specs.append((control, case.added, {}, None, None))
-        specs.append((f"fl_thermal + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift,
-                      case.mechanism, control))
+    specs = fl_semi.case_specs(rec, seed)
     rows = []
     for label, added, drift, mechanism, control in specs:
         frame, channels = rec.data.copy(), dict(rec.channels)

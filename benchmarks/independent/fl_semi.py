@@ -72,3 +72,19 @@ def plant(time_s: np.ndarray, speed: np.ndarray, drift_cols: list[str], z_cols: 
     out.append(SemiCase("coolant_coupling", {"chiller_inlet_degC": ("coolant_inlet", "degC", cin_read)},
                         {col: sign * a * resp for col, a in zip(drift_cols, amps)}, float(np.median(amps))))
     return out
+
+
+def case_specs(rec, seed: int) -> list[tuple]:
+    """The semi-synthetic cases of ``seed`` on an FL_THERMAL recording, in run order: the plain recording, then each
+    planting after its control (the plain recording plus the planting's added inputs, when it has any), as
+    ``(label, added inputs, planted drift in µm, mechanism or None, control label or None)``."""
+    z = [c for c in rec.columns("displacement") if rec.channels[c].meta.get("axis") == "z"]
+    specs = [("fl_thermal (plain)", {}, {}, None, None)]
+    for case in plant(rec.time_s, rec.speed.to_numpy(dtype=float), rec.columns("displacement"), z, seed):
+        control = "fl_thermal (plain)"
+        if case.added:
+            control = f"fl_thermal + {', '.join(case.added)} (control)"
+            specs.append((control, case.added, {}, None, None))
+        specs.append((f"fl_thermal + {case.mechanism} ({case.amplitude_um:.1f} um)", case.added, case.drift,
+                      case.mechanism, control))
+    return specs
