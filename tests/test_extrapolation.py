@@ -61,7 +61,8 @@ def test_automl_flags_the_8000_rpm_run_held_out_after_idle_and_1600_rpm():
     assert (first.driver, first.value, first.low, first.high) == ("spindle_rpm", 8000.0, 0.0, 1600.0)
     assert first.beyond == pytest.approx(6400.0) and first.share == pytest.approx(4.0)
     assert {e.driver for e in result.extrapolation} >= {"T_front_bearing", "T_rear_bearing"}
-    assert said[0].startswith("thermodrift: warning: the held-out part (held out: 8000rpm) extrapolates")
+    assert said[0].startswith("thermodrift: warning: the held-out part (8000rpm) extrapolates beyond")
+    assert result.extrapolates().startswith("the held-out part (8000rpm) extrapolates beyond")
     assert "spindle_rpm reaches 8000 rpm, 6.4e+03 rpm above its training range 0 to 1600 rpm" in said[0]
     board = result.leaderboard
     # the inner fold predicts 1600 rpm from idle: every candidate was validated beyond its training range
@@ -77,6 +78,17 @@ def _two_drivers() -> Recording:
     data = pd.DataFrame({"n": n, "T": 20.0 + 0.5 * (1 + np.sin(t / 600.0)), "d": n / 100.0}, index=t)
     return Recording(data, {"n": Channel("n", "speed", "rpm"), "T": Channel("T", "temperature", "degC"),
                             "d": Channel("d", "displacement", "um")})
+
+
+def test_a_warning_names_the_held_out_part_once_whatever_the_split():
+    rec = _idle_1600_8000()
+    for split, params, part in (("condition_holdout", {"test_conditions": ["8000rpm"]}, "(8000rpm)"),
+                                ("chronological", {"test_fraction": 0.25}, "(last 25% of time)")):
+        (fold,) = splits.make_split(split, **params).folds(rec)
+        line = ex.summary(ex.check(rec, fold.train, fold.test, []), ex.held_out_part(fold.name))
+        assert line.startswith(f"the held-out part {part} extrapolates beyond the training range")
+        assert "held out" not in line
+    assert ex.held_out_part("held out: run day06") == "the held-out part (run day06)"
 
 
 def test_the_leaderboard_marks_candidates_whose_inner_folds_never_extrapolated():

@@ -152,8 +152,15 @@ def of_result(result) -> list[str]:
             continue
         found = check(rec, fold.train_rows, np.searchsorted(rec.time_s, fold.time_s), result.targets)
         if found:
-            out.append(summary(found, f"the held-out part ({fold.name})"))
+            out.append(summary(found, held_out_part(fold.name)))
     return out
+
+
+def held_out_part(fold_name: str) -> str:
+    """A held-out part as a warning names it: ``the held-out part (8000rpm)`` for the fold ``held out: 8000rpm``
+    (the name a split or :func:`thermodrift.core.tracking.held_out` gives), ``the held-out part (last 20% of
+    time)`` for a name without that prefix."""
+    return f"the held-out part ({fold_name.removeprefix('held out: ')})"
 
 
 def summary(found: list[Excursion], what: str) -> str:

@@ -51,7 +51,7 @@ class AutoMLResult:
 
     def extrapolates(self) -> str:
         """One line naming the drivers in which the held-out part extrapolates and how far (empty: none)."""
-        what = f"the held-out part ({self.job.folds[0].name})"
+        what = extrapolation.held_out_part(self.job.folds[0].name)
         return extrapolation.summary(self.extrapolation, what) if self.extrapolation else ""
 
 
@@ -92,7 +92,7 @@ def run(spec: JobSpec, settings: Settings, say=lambda line: None, recording=None
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     beyond = extrapolation.check(recording, fold.train, fold.test, targets)
     if beyond:  # said before the search: what its inner folds cannot vouch for unless they extrapolated too
-        say(f"thermodrift: warning: {extrapolation.summary(beyond, f'the held-out part ({fold.name})')}")
+        say(f"thermodrift: warning: {extrapolation.summary(beyond, extrapolation.held_out_part(fold.name))}")
     folds = inner.inner_folds(recording, fold.train, settings.max_folds)
     ev = Evaluator(recording, fold.train, targets, folds, spec.seed, n_jobs=settings.jobs())
     name = spec.study_name or study_name(spec, settings)
