@@ -318,6 +318,7 @@ def test_a_tuned_candidate_enters_the_final_choice_only_when_it_beats_the_a_prio
     assert [e.number for e in eligible] == [0, 2]
     assert search._best(eligible) is steady
     assert said and "1 TPE candidate" in said[0]
+    assert "do not beat trial 0 (" in said[0] and "#" not in said[0]  # numbered as the leaderboard shows it
 
 
 def test_the_candidates_the_folds_cannot_tell_from_the_best_are_averaged_by_inverse_mean_squared_fold_rmse():

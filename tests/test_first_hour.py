@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -67,28 +69,25 @@ def test_the_job_report_says_which_inputs_its_mlr_baseline_reads():
     assert f"held-out ({result.folds[0].name.removeprefix('held out: ')})" in text and "held out" not in text
 
 
-def test_the_automl_note_numbers_the_trial_as_the_leaderboard_shows_it():
-    import optuna
+def test_plugins_piped_into_a_reader_that_stops_early_exits_quietly():
+    for extra in ([], ["--json"]):
+        proc = subprocess.Popen([sys.executable, "-m", "thermodrift.core.cli", "plugins", *extra],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        proc.stdout.close()  # the reader is gone before the first line (`| head -1` after its line)
+        err = proc.stderr.read().decode()
+        assert proc.wait(timeout=120) == 141, err  # 128 + SIGPIPE, as `yes | head -1`
+        assert err == ""
 
-    from thermodrift.core import splits
-    from thermodrift.core.automl import folds as inner, space
-    from thermodrift.core.automl.evaluate import Evaluation, Evaluator
-    from thermodrift.core.automl.search import Entry, Search, Settings
-    from thermodrift.testing.data import tiny_recording
 
-    rec = tiny_recording()
-    (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
-    ev = Evaluator(rec, outer.train, ["disp_z_um"], inner.inner_folds(rec, outer.train, 2))
-    said = []
-    search = Search(ev, optuna.create_study(), Settings(families=["mlr"]), said.append, progress=False)
+def test_a_grid_with_one_jobs_config_is_one_line_and_exit_2(capsys):
+    from thermodrift.core.cli import main
 
-    def entry(number, phase, fold_rmse):
-        cand = space.Candidate({"model": "mlr", "model_params": {}, "selector": "all", "selector_params": {},
-                                "features": None})
-        return Entry(number, cand, Evaluation(fold_rmse, {}, inner.aggregate(fold_rmse)), phase=phase)
-
-    search._eligible([entry(3, "portfolio", [1.0, 1.0]), entry(4, "tpe", [0.5, 1.05])])
-    assert "do not beat trial 3 (" in said[0] and "#" not in said[0]
+    assert main(["run", "-m", "model=mlr,persistence", "--cfg", "job"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("thermodrift: error: -m and --cfg:") and "\n" not in err
+    assert "thermodrift run model=mlr --cfg job" in err
+    assert main(["automl", "--cfg", "job", "--info"]) == 2
+    assert "--cfg and --info" in capsys.readouterr().err
 
 
 def test_a_finding_shows_its_values_and_never_an_empty_dict():

@@ -81,9 +81,17 @@ def main(argv: list[str] | None = None) -> int:
     return _guard(lambda: module.run(args))
 
 
+BROKEN_PIPE = 141  # 128 + SIGPIPE: the status of a tool whose reader went away (`yes | head -1`)
+
+
 def _guard(fn) -> int:
     try:
-        return int(fn() or 0)
+        code = int(fn() or 0)
+        sys.stdout.flush()  # here, not at exit: a reader that has gone away is answered below
+        return code
+    except BrokenPipeError:  # `thermodrift plugins | head -1`: the reader has all it wanted, nothing to report
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # so Python's flush at exit stays quiet
+        return BROKEN_PIPE
     except (InputError, PluginError) as exc:
         error_line(f"thermodrift: error: {exc}")
         return 2

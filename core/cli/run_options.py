@@ -158,9 +158,25 @@ def automl_overrides(args: list[str]) -> list[str]:
     return list(args) if given else ["automl=default", *args]
 
 
+# Hydra's modes, of which one command takes one: option -> its long name
+_MODES = {"-r": "--run", "--run": "--run", "-m": "--multirun", "--multirun": "--multirun", "-c": "--cfg",
+          "--cfg": "--cfg", "-i": "--info", "--info": "--info", "-sc": "--shell-completion",
+          "--shell-completion": "--shell-completion"}
+
+
 def check_flags(args: list[str], verb: str = "run") -> None:
     """Raise a one-line :class:`InputError` for a setting typed as an option (``--n-trials 5``), naming the
-    override to write instead (``n_trials=5``; for ``automl``, ``--budget 5`` -> ``automl.budget_fits=5``)."""
+    override to write instead (``n_trials=5``; for ``automl``, ``--budget 5`` -> ``automl.budget_fits=5``), and for
+    two of Hydra's modes in one command (``-m ... --cfg job``: a grid, or one job's configuration)."""
+    modes = list(dict.fromkeys(_MODES[a.partition("=")[0]] for a in args if a.partition("=")[0] in _MODES))
+    if "--multirun" in modes and len(modes) > 1:
+        shown = [m for m in modes if m != "--multirun"][0]
+        raise InputError(f"-m and {shown}: thermodrift {verb} runs a grid (-m) or shows one job ({shown}), not both",
+                         hint=f"drop -m and give each option one value, e.g. thermodrift {verb} "
+                         f"{'model=mlr ' if verb == 'run' else ''}--cfg job" if shown == "--cfg" else f"drop -m or {shown}")
+    if len(modes) > 1:
+        raise InputError(f"{' and '.join(modes)}: thermodrift {verb} takes one of them at a time",
+                         hint=f"keep one of {', '.join(modes)}")
     i = 0
     while i < len(args):
         arg = args[i]
