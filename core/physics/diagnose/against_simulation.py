@@ -27,8 +27,9 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  (:data:`SIZE_MIN`); the temperature channels it reaches besides may not lose more than
                  :data:`GUARD`. One judged on the drift comes first. A rival judged alike (passing or not) with
                  :data:`RIVAL` of the best median gain makes it
-                 "cannot tell" (precision first: no name) unless the best is decisive against it: fitted
-                 together, the best removes
+                 "cannot tell" (precision first: no name) unless the best beats it fold by fold (a larger
+                 share on :data:`BEATS` of the folds) or is decisive against it: fitted together, the best
+                 removes
                  :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival removes of what
                  the best leaves
     model        the winner fitted on the rows before the final block: simulation + null + its correction, its
@@ -60,6 +61,8 @@ FOLDS = 8           # contiguous groups of condition blocks before the final blo
 GUARD = 0.5         # the other channels it reaches may lose at most this share of their held-out fit
 IMPROVED = 6        # at least this many of the FOLDS + 1 folds must be better
 EXTRA_MIN = 0.1     # against a rival within RIVAL: share of what is left with the rival in that the best removes
+BEATS = 7           # ... or the best removes a larger share of the null's held-out error than the rival on this
+                    # many of the FOLDS + 1 folds (a paired comparison, fold by fold)
 
 
 @dataclass
@@ -89,9 +92,14 @@ class Tested:
         return bool((self.fold_gain > 0).sum() >= IMPROVED)
 
     @property
+    def fold_share(self) -> np.ndarray:
+        """Per fold, the share of the null's held-out error (judged channels) removed."""
+        return self.fold_gain / np.maximum(self.fold_null, 1e-300)
+
+    @property
     def gain(self) -> float:
-        """Median over the folds of the share of the null's held-out error removed: the decision statistic."""
-        return float(np.median(self.fold_gain / np.maximum(self.fold_null, 1e-300)))
+        """Median over the folds of :attr:`fold_share`: the decision statistic."""
+        return float(np.median(self.fold_share))
 
 
 @dataclass
@@ -386,7 +394,8 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
     # a rival: any other mechanism judged alike explaining as much held out, passing or not (one that fails only
     # on its folds is still an explanation the data does not rule out)
     rivals = [t for t in tested if win and t is not win and t.gain >= RIVAL * win.gain
-              and p.kinds[t.judged[0]] == p.kinds[win.judged[0]] and not _decisive(p, win, t, null_sse)]
+              and p.kinds[t.judged[0]] == p.kinds[win.judged[0]] and not _beats(win, t)
+              and not _decisive(p, win, t, null_sse)]
     base_fit = _baseline(p)
     findings, rejected = [], []
     if win and not rivals:
@@ -427,6 +436,14 @@ def _pair_sse(p: Problem, parts: list[Tested], judged: list[int]) -> float:
             beta = _solve(X, y, train, sign, first)
             total += float(np.sum((y[test] - X[test] @ beta) ** 2)) / p.sigma[j] ** 2
     return total
+
+
+def _beats(win: Tested, rival: Tested) -> bool:
+    """Whether ``win`` removes a larger share of the null's held-out error than ``rival`` on :data:`BEATS` of the
+    folds (sensor lag, judged on other channels, is never compared)."""
+    if "sensor_lag" in (win.form["driver"], rival.form["driver"]):
+        return False
+    return int((win.fold_share > rival.fold_share).sum()) >= BEATS
 
 
 def _decisive(p: Problem, win: Tested, rival: Tested, null_sse: np.ndarray) -> bool:
