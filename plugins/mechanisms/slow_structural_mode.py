@@ -35,7 +35,8 @@ class SlowStructuralMode(Mechanism):
     options = {"nodes": None, "groups": ("structure", "housing"), "axes": ("z",), "ambient_W_K": 2.0}
     signature = "non-monotonic step response: difference of two exponentials, overshoot on cool-down"
     # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
-    simulation_form = {"driver": "slow_heat", "taus_s": (14400.0, 28800.0, 57600.0), "reaches": ("displacement",)}
+    simulation_form = {"driver": "slow_heat", "taus_s": (14400.0, 28800.0, 57600.0), "reaches": ("displacement",),
+                       "axes": ("z",)}  # as its default option: the slow part acts along z
 
     def _apply(self, network, p, o):
         target = target_nodes(network, self.id, o["nodes"], o["groups"])[0]
