@@ -24,7 +24,7 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  judged channels it removes, with a median over the folds of :data:`GAIN_MIN` (a paired
                  comparison of null and null + mechanism fold by fold, robust to the one fold whose conditions
                  the others lack; :data:`GAIN_ALL` when every fold is better), consistency (at least
-                 :data:`IMPROVED` folds better) and a size in noise units
+                 :data:`IMPROVED` folds better, the final block among them) and a size in noise units
                  (:data:`SIZE_MIN`); the temperature channels it reaches besides may not lose more than
                  :data:`GUARD`. One judged on the drift comes first. A rival judged alike (passing or not) with
                  :data:`RIVAL` of the best median gain makes it
@@ -90,10 +90,11 @@ class Tested:
 
     @property
     def consistent(self) -> bool:
-        """At least :data:`IMPROVED` folds better, and a median gain of :data:`GAIN_MIN` (:data:`GAIN_ALL` when
-        every fold is better)."""
+        """At least :data:`IMPROVED` folds better, the final block among them (the forward prediction a user
+        compensates with), and a median gain of :data:`GAIN_MIN` (:data:`GAIN_ALL` when every fold is better)."""
         better = int((self.fold_gain > 0).sum())
-        return better >= IMPROVED and self.gain >= (GAIN_ALL if better == len(self.fold_gain) else GAIN_MIN)
+        return bool(better >= IMPROVED and self.fold_gain[-1] > 0
+                    and self.gain >= (GAIN_ALL if better == len(self.fold_gain) else GAIN_MIN))
 
     @property
     def fold_share(self) -> np.ndarray:
@@ -482,6 +483,8 @@ def _why(t: Tested) -> str:
     fails = []
     if (t.fold_gain > 0).sum() < IMPROVED:
         fails.append(f"fewer than {IMPROVED} folds improved")
+    elif t.fold_gain[-1] <= 0:
+        fails.append("the final block not improved")
     elif not t.consistent:
         fails.append(f"median fold gain below {GAIN_MIN:.0%} ({GAIN_ALL:.0%} with every fold improved)")
     if t.size < SIZE_MIN:
