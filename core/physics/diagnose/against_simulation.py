@@ -27,7 +27,8 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  :data:`IMPROVED` folds better, the final block among them) and a size in noise units
                  (:data:`SIZE_MIN`); the temperature channels it reaches besides may not lose more than
                  :data:`GUARD`. One judged on the drift comes first. A rival judged alike (passing or not) with
-                 :data:`RIVAL` of the best median gain makes it
+                 :data:`RIVAL` of the best median gain (for one judged on the temperatures, any judged on the
+                 drift too) makes it
                  "cannot tell" (precision first: no name) unless the best beats it fold by fold (a larger
                  share on :data:`BEATS` of the folds) or is decisive against it: fitted together, the best
                  removes
@@ -398,8 +399,10 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
     win = pool[0] if pool else None
     # a rival: any other mechanism judged alike explaining as much held out, passing or not (one that fails only
     # on its folds is still an explanation the data does not rule out)
+    # (a winner judged on the temperatures alone also has every drift-judged mechanism as a rival: what leaves
+    # the drift misfit as it is cannot be named while a drift form explains as much)
     rivals = [t for t in tested if win and t is not win and t.gain >= RIVAL * win.gain
-              and p.kinds[t.judged[0]] == p.kinds[win.judged[0]] and not _beats(win, t)
+              and p.kinds[t.judged[0]] in (p.kinds[win.judged[0]], "displacement") and not _beats(win, t)
               and not _decisive(p, win, t, null_sse)]
     base_fit = _baseline(p)
     findings, rejected = [], []
