@@ -161,3 +161,23 @@ def test_the_auto_report_gives_every_mechanism_a_standing():
         d, ["ambient_coupling", "cutting_heat", "sensor_lag", "thermal_tilt"])}
     assert got == {"ambient_coupling": "nested", "cutting_heat": "tested", "sensor_lag": "tested",
                    "thermal_tilt": "untestable"}
+
+
+def _tested(shares, null=10.0):
+    folds = np.asarray(shares, float)
+    return against_simulation.Tested("m", {"driver": "cutting_power"}, [0], folds * null, 0.0, 10.0, 0.0, 0.0,
+                                     np.zeros((2, 1)), np.zeros((2, 1)), fold_null=np.full(len(folds), null))
+
+
+def test_the_decision_is_the_median_fold_gain_robust_to_one_fold_and_the_final_block_must_improve():
+    n = against_simulation.FOLDS + 1
+    # one fold far worse (conditions the others lack) does not sink a mechanism explaining the rest
+    assert _tested([0.8] * (n - 2) + [-3.0, 0.7]).consistent
+    # ... but the final block (the last fold) must be better
+    assert not _tested([0.8] * (n - 1) + [-0.1]).consistent
+    # a median of 50 % passes only when every fold is better
+    assert _tested([0.55] * n).consistent
+    assert not _tested([0.55] * (n - 2) + [-0.1, 0.55]).consistent
+    # too few folds better
+    k = against_simulation.IMPROVED - 1
+    assert not _tested([0.9] * (k - 1) + [-0.1] * (n - k) + [0.9]).consistent
