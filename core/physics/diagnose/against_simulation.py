@@ -10,8 +10,8 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
     null         the calibration null per channel (:func:`.sim_forms.null_design`): offset, simulated excess and
                  its lags, lagged speed heat, and the simulation's own response to every recorded input it
                  responds to with a lag of it, so a driver the simulation has with a wrong gain or time
-                 constant is absorbed, not named. Fitted on the rows before the final block: the calibrated
-                 simulation, the ``baseline`` of the report
+                 constant is absorbed, not named. Fitted on the rows before the final block, with a small ridge
+                 on its columns (:data:`NULL_RIDGE`): the calibrated simulation, the ``baseline`` of the report
     test         every registered mechanism declaring ``simulation_form`` (:mod:`.sim_forms`): its driver through
                  each of its lags, a gain per channel it reaches, its sign on temperature channels; sensor lag
                  as a fixed form (each temperature channel reads the simulation plus its correction through a
@@ -61,6 +61,9 @@ GAIN_ALL = 0.5      # ... or this median when every fold is better
 SIZE_MIN = 4.0      # its correction's peak-to-peak over the fitted rows, in noise units, on one judged channel
 RIVAL = 0.8         # another mechanism judged alike with this median gain of the best's: cannot tell which
 FOLDS = 8           # contiguous groups of condition blocks before the final block
+NULL_RIDGE = 1e-3   # ridge on the null's columns (scaled to unit peak), of their mean energy: near-collinear lags
+                    # of the simulated excess, speed heat and inputs otherwise take large cancelling gains that a
+                    # mechanism's column reshuffles, and the shuffle extrapolates as a trend into held-out blocks
 GUARD = 0.5         # the other channels it reaches may lose at most this share of their held-out fit
 IMPROVED = 6        # at least this many of the FOLDS + 1 folds must be better
 EXTRA_MIN = 0.1     # against a rival within RIVAL: share of what is left with the rival in that the best removes
@@ -189,6 +192,9 @@ def _solve(X: np.ndarray, y: np.ndarray, rows: np.ndarray, sign: int = 0, first:
     scale = np.maximum(np.abs(Xr).max(axis=0), 1e-12)
     A = Xr / scale
     G, b = A.T @ A, A.T @ y[rows]
+    if first > 1:  # the null's columns (not its offset, not the mechanism's) held back: see NULL_RIDGE
+        null = np.arange(1, first)
+        G[null, null] += NULL_RIDGE * float(np.mean(np.diag(G)[null]))
     keep = np.ones(X.shape[1], bool)
     for _ in range(X.shape[1] - first + 1):
         beta = np.zeros(X.shape[1])
