@@ -1,18 +1,20 @@
-"""Maximum-likelihood estimation of a stochastic grey-box model: bounded parameters by transformation, several
-deterministic starts, intervals from the Hessian and the parameters the data cannot identify.
+"""Maximum-likelihood estimation of a stochastic grey-box model: bounded parameters, several deterministic starts,
+intervals from the Hessian and the parameters the data cannot identify.
 
 A *model* is anything with ``name``, ``parameters`` (a tuple of :class:`Param`) and ``system(values) -> System``
-(values: a mapping of parameter name to value). Each parameter is searched on an unbounded scale η: ``log`` for a
-positive parameter without an upper bound, ``logit`` of its log for a positive one inside [low, high], ``logit``
-for a finite interval that includes 0 or negatives, the identity otherwise.
+(values: a mapping of parameter name to value). Each parameter is searched on a scale η: the log of a parameter
+that cannot be negative (its intervals stay positive and its relative precision is what the data set), the value
+itself otherwise. Its bounds are kept by the optimiser itself (scipy's L-BFGS-B, a box on η), not by a squashing
+transformation: a logit scale flattens the likelihood near a bound (its slope vanishes as e^−|η|), so a parameter
+that strays there during the search never comes back, and a fit ends below the likelihood its own start had.
 
-:func:`fit` maximises the Kalman filter's innovations log-likelihood (:func:`.kalman.run`) with scipy's
-L-BFGS-B from the model's values and ``starts − 1`` more points drawn around them from ``seed`` (η + N(0, 1)),
-keeping the best. The observed information is the Hessian of −log L by central differences on the η scale;
-its inverse gives standard errors on η, mapped back to 95 % intervals (so a positive parameter's interval stays
-positive). A parameter is *unidentifiable* when the Hessian is near-singular along a direction it loads on
-(eigenvalue below 1e-8 of the largest), when its η standard error exceeds 3 (an interval wider than a factor
-e^{±5.9}), or when it sits at a bound.
+:func:`fit` maximises the Kalman filter's innovations log-likelihood (:func:`.kalman.run`) from the model's values
+and ``starts − 1`` more points drawn around them from ``seed`` (η + N(0, 1), inside the box), keeping the best; the
+best is then polished by a second L-BFGS-B run from where it stopped (a restart discards a curvature memory built
+far from the optimum). The observed information is the Hessian of −log L by central differences on the η scale;
+its inverse gives standard errors on η, mapped back to 95 % intervals. A parameter is *unidentifiable* when the
+Hessian is near-singular along a direction it loads on (eigenvalue below 1e-8 of the largest), when its η standard
+error exceeds 3 (an interval wider than a factor e^{±5.9}), or when it sits at a bound.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ from thermodrift.core.physics.stochastic import kalman
 from thermodrift.core.physics.stochastic.sde import Series, System
 
 Z95 = float(norm.ppf(0.975))
-ETA_LIMIT = 25.0          # |η| beyond this is a bound in practice
+ETA_LIMIT = 25.0          # log scale: e^±25, the box where a positive parameter has no finite bound
 SE_UNIDENTIFIABLE = 3.0   # η standard error above which a parameter is named unidentifiable
 EIG_UNIDENTIFIABLE = 1e-8
 
@@ -48,37 +50,33 @@ class Param:
 
     @property
     def transform(self) -> str:
-        if self.low > 0 and math.isfinite(self.high):
-            return "logit-log"
-        if self.low >= 0 and not math.isfinite(self.high):
-            return "log"
-        if math.isfinite(self.low) and math.isfinite(self.high):
-            return "logit"
-        return "identity"
+        """``log`` for a parameter that cannot be negative, ``identity`` otherwise."""
+        return "log" if self.low >= 0 else "identity"
+
+    @property
+    def eta_bounds(self) -> tuple[float, float]:
+        """The search box on the η scale (``±ETA_LIMIT`` where a log-scaled bound is 0 or infinite)."""
+        if self.transform == "log":
+            return (math.log(self.low) if self.low > 0 else -ETA_LIMIT,
+                    math.log(self.high) if math.isfinite(self.high) else ETA_LIMIT)
+        return (self.low, self.high)
 
     def to_eta(self, v: float) -> float:
-        t = self.transform
-        if t == "log":
-            return math.log(max(v, 1e-300))
-        if t == "identity":
-            return float(v)
-        lo, hi, v = (math.log(self.low), math.log(self.high), math.log(v)) if t == "logit-log" else (
-            self.low, self.high, v)
-        z = min(max((v - lo) / (hi - lo), 1e-12), 1 - 1e-12)
-        return math.log(z / (1 - z))
+        lo, hi = self.eta_bounds
+        eta = math.log(max(v, 1e-300)) if self.transform == "log" else float(v)
+        return min(max(eta, lo), hi)
 
     def from_eta(self, eta: float) -> float:
-        t = self.transform
-        eta = min(max(float(eta), -ETA_LIMIT * 4), ETA_LIMIT * 4)
-        if t == "log":
-            return math.exp(eta)
-        if t == "identity":
-            return eta
-        z = 1.0 / (1.0 + math.exp(-eta))
-        if t == "logit-log":
-            lo, hi = math.log(self.low), math.log(self.high)
-            return math.exp(lo + (hi - lo) * z)
-        return self.low + (self.high - self.low) * z
+        lo, hi = self.eta_bounds
+        eta = min(max(float(eta), lo), hi)
+        v = math.exp(eta) if self.transform == "log" else eta
+        return min(max(v, self.low), self.high)
+
+    def at_bound(self, eta: float) -> bool:
+        """Whether ``eta`` lies on the search box's edge (within 1e-6 of its width, or of 1)."""
+        lo, hi = self.eta_bounds
+        tol = 1e-6 * (hi - lo if math.isfinite(hi - lo) else 1.0)
+        return eta <= lo + tol or eta >= hi - tol
 
     def with_value(self, v: float) -> "Param":
         return Param(self.name, float(min(max(v, self.low), self.high)), self.low, self.high, self.unit, self.doc)
@@ -176,10 +174,13 @@ def one_thread():
 
 
 def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: int = 300,
-        information: bool = True, **options) -> Estimate:
+        information: bool = True, polish: bool = True, also: Sequence[Mapping[str, float]] = (),
+        **options) -> Estimate:
     """Maximum-likelihood estimate of ``model`` on ``data`` (see the module docstring); ``options`` go to the
     filter (``p0``, ``init_rows``, ``tol``, ``transient``). The search stops when an iteration gains less than
-    1e-8 of the mean log-likelihood per sample (``ftol``) or after ``maxiter`` iterations per start."""
+    1e-8 of the mean log-likelihood per sample (``ftol``; 1e-10 with ``polish``) or after ``maxiter``
+    iterations per start; ``polish`` restarts from the best start's end (see the module docstring). ``also``:
+    more start points (name → value; a missing name takes the model's value), searched before the random ones."""
     params = model.parameters
     clock = time.perf_counter()
     n_evals = 0
@@ -193,17 +194,27 @@ def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: 
         return -ll * scale if math.isfinite(ll) else 1e10
 
     eta0 = np.array([p.to_eta(p.value) for p in params])
+    bounds = [p.eta_bounds for p in params]
+    lo, hi = np.array(bounds).T
     rng = np.random.default_rng(seed)
-    points = [eta0] + [eta0 + rng.standard_normal(len(eta0)) for _ in range(max(starts, 1) - 1)]
-    bounds = [(-ETA_LIMIT, ETA_LIMIT)] * len(params)
+    given = [np.array([p.to_eta(v.get(p.name, p.value)) for p in params]) for v in also]
+    drawn = [np.clip(eta0 + rng.standard_normal(len(eta0)), lo, hi) for _ in range(max(starts, 1) - 1)]
+    points = [eta0, *given, *drawn]
+
+    def search(x0: np.ndarray, ftol: float = 1e-8):
+        return minimize(objective, x0, method="L-BFGS-B", bounds=bounds, options={"maxiter": maxiter, "ftol": ftol})
+
     best, start_ll = None, []
     with one_thread():
         for x0 in points:
-            res = minimize(objective, np.clip(x0, -ETA_LIMIT, ETA_LIMIT), method="L-BFGS-B", bounds=bounds,
-                           options={"maxiter": maxiter, "ftol": 1e-8})
+            res = search(x0)
             start_ll.append(-float(res.fun) / scale)
             if best is None or res.fun < best.fun:
                 best = res
+        if polish:
+            again = search(best.x, 1e-10)
+            if again.fun < best.fun:
+                best = again
         est = Estimate(model, data, _values(params, best.x), -float(best.fun) / scale, best.x.copy(), n_evals,
                        0.0, start_ll, options=dict(options))
         if information:
@@ -228,7 +239,7 @@ def add_information(est: Estimate, h: float = 2e-3) -> None:
     H = 0.5 * (H + H.T)
     why: dict[str, str] = {}
     for i, p in enumerate(params):
-        if abs(eta[i]) >= ETA_LIMIT - 1e-6 and p.transform != "identity":
+        if p.at_bound(eta[i]):
             why[p.name] = "at its bound"
     finite = np.isfinite(H).all()
     if finite:

@@ -5,9 +5,9 @@ by likelihood and accepts it when the likelihood-ratio test against the current 
 
 Starts: the one-state model from a least-squares fit of its Euler discretisation (ΔTi/Δt on Ta − Ti, Ps and the
 heating), so the search begins at the recording's own heat and irradiance scales; each extension from the current
-model's estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`; a new aperture
-at the interior aperture's estimate), with
-``starts − 1`` more points drawn from ``seed``.
+model's estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`; a new
+aperture at the interior aperture's estimate), again with the parameters the parent left on a bound moved back to
+where they started (:func:`extension_starts`), and ``starts − 1`` more points drawn from ``seed``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from scipy.stats import chi2
 
 from thermodrift.core.physics.stochastic import whiteness
-from thermodrift.core.physics.stochastic.building import htc, structure_name
+from thermodrift.core.physics.stochastic.building import htc, rescaled, structure_name
 from thermodrift.core.physics.stochastic.fit import Estimate, fit
 from thermodrift.core.physics.stochastic.rc import RCNetwork
 from thermodrift.core.physics.stochastic.sde import Series
@@ -87,14 +87,15 @@ def _whiteness(est: Estimate) -> dict:
 
 
 def _fit_one(job: tuple) -> Estimate:
-    model, data, seed, starts = job
-    return fit(model, data, seed=seed, starts=starts, information=False)
+    model, data, seed, starts, also = job
+    return fit(model, data, seed=seed, starts=starts, information=False, also=also)
 
 
-def _fit_all(models: list[RCNetwork], data: Series, seed: int, starts: int, workers: int) -> list[Estimate]:
-    """Fit each model (in ``workers`` processes when more than one: the candidates of a round are independent,
-    and each fit is deterministic, so the result does not depend on ``workers``)."""
-    jobs = [(m, data, seed, starts) for m in models]
+def _fit_all(jobs: list[tuple[RCNetwork, list[dict]]], data: Series, seed: int, starts: int,
+             workers: int) -> list[Estimate]:
+    """Fit each (model, more start points) (in ``workers`` processes when more than one: the candidates of a
+    round are independent, and each fit is deterministic, so the result does not depend on ``workers``)."""
+    jobs = [(m, data, seed, starts, also) for m, also in jobs]
     if workers <= 1 or len(jobs) <= 1:
         return [_fit_one(j) for j in jobs]
     from concurrent.futures import ProcessPoolExecutor
@@ -103,12 +104,33 @@ def _fit_all(models: list[RCNetwork], data: Series, seed: int, starts: int, work
         return list(pool.map(_fit_one, jobs))
 
 
+def extension_starts(parent: Estimate, ext: RCNetwork, scale: float, origin: dict[str, float]
+                     ) -> tuple[RCNetwork, list[dict]]:
+    """An extension of ``parent``'s model with its start points: the parent's estimates with the new parameters at
+    their defaults rescaled to the recording's heat scale (a new aperture at the interior's), and, when a parent
+    parameter ended on a bound, the same with those parameters back at the values they started from when they
+    entered the model (``origin``): a state the parent lacked often needs what the parent switched off, e.g. the
+    interior's solar aperture, and a search cannot leave a bound that the likelihood is flat at."""
+    params = parent.model.parameters
+    base = {p.name: p.from_eta(e) for p, e in zip(params, parent.eta)}
+    defaults = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0).values()
+    new = set(defaults) - set(base)
+    start = {**base, **{k: defaults[k] for k in new}}
+    bounded = {p.name for p, e in zip(params, parent.eta) if p.at_bound(e) and p.name in origin}
+    if "Aw" in base and "Aw" not in bounded:  # apertures start at the interior's: irradiance units vary
+        start.update({k: base["Aw"] for k in new if k.startswith("A")})
+    reset = {**start, **{k: origin[k] for k in bounded}}
+    if "Aw" in bounded:
+        reset.update({k: origin["Aw"] for k in new if k.startswith("A")})
+    return ext.with_values(start), ([reset] if bounded else [])
+
+
 def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0, starts: int = 2,
                    alpha: float = ALPHA, progress=None, workers: int = 1, only=None) -> Selection:
     """Forward selection from ``net`` (the one-state model; see the module docstring). ``progress``: called
     with a line of text per fitted candidate; ``workers``: processes fitting a round's candidates; ``only``:
     mechanism ids to consider (default: every registered building mechanism)."""
-    from thermodrift.core.physics.stochastic.building import BuildingMechanism, rescaled
+    from thermodrift.core.physics.stochastic.building import BuildingMechanism
 
     if registry is None:
         from thermodrift.core import registry as registry_module
@@ -117,7 +139,9 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
     mechs = [registry.get("mechanism", m).factory for m in registry.names("mechanism") if only is None or m in only]
     mechs = [m for m in mechs if isinstance(m, type) and issubclass(m, BuildingMechanism)]
     clock = time.perf_counter()
-    est = fit(ti_start(net, data), data, seed=seed, starts=starts, information=False)
+    first = ti_start(net, data)
+    origin = first.values()  # each parameter's start value when it entered the model
+    est = fit(first, data, seed=seed, starts=starts, information=False)
     current = Step(structure_name(net), est, whiteness=_whiteness(est))
     if progress:
         progress(f"{current.name}: loglik {est.loglik:.1f}")
@@ -125,17 +149,7 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
     while True:
         scale = htc(current.estimate.model, current.estimate.values) / DEFAULT_HTC
         base = current.estimate.model.with_values(current.estimate.values)
-        jobs = []
-        for m in mechs:
-            if not m.places(base):
-                continue
-            ext = m().apply(base)
-            new = {p.name for p in ext.params} - {p.name for p in base.params}
-            start = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0)
-            values = {k: v for k, v in start.values().items() if k in new}
-            if "Aw" in base.values():  # apertures start at the interior's: irradiance units vary (W/m², kW/m²)
-                values.update({k: base.values()["Aw"] for k in new if k.startswith("A")})
-            jobs.append(ext.with_values(values))
+        jobs = [extension_starts(current.estimate, m().apply(base), scale, origin) for m in mechs if m.places(base)]
         tried = _fit_all(jobs, data, seed, starts, workers)
         if progress:
             for e in tried:
@@ -152,6 +166,7 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
         path.append(step)
         if not step.accepted:
             break
+        origin.update({k: v for k, v in best.model.values().items() if k not in origin})
         current = step
     from thermodrift.core.physics.stochastic.fit import add_information
 
