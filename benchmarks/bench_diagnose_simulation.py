@@ -27,6 +27,7 @@ Run::
 
     python benchmarks/bench_diagnose_simulation.py                      # both generators, 11 + 4 nulls each (~5 min)
     python benchmarks/bench_diagnose_simulation.py --full --results dev.jsonl        # 33 + 20 per generator
+    python benchmarks/bench_diagnose_simulation.py --per 2 --nulls 12 --both-settings  # the development set (136)
     python benchmarks/bench_diagnose_simulation.py --full --sealed --results sealed.jsonl
     python benchmarks/bench_diagnose_simulation.py --fl                 # semi-synthetic FL_THERMAL only
     python benchmarks/bench_diagnose_simulation.py --timing             # one 30 h recording at 15 s
@@ -189,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sealed", action="store_true", help="the sealed range (run once, at the end)")
     ap.add_argument("--sealed-base", type=int, default=SEALED_BASE, metavar="SEED")
     ap.add_argument("--errors", type=float, nargs="+", default=[0.2], help="parameter error sizes (default 0.2)")
+    ap.add_argument("--both-settings", action="store_true",
+                    help="every case with and without structural error (default: every second case structural)")
     ap.add_argument("--detect-inputs", action="store_true",
                     help="read the inputs that drove the simulation from its traces instead of being told")
     ap.add_argument("--step-s", type=float, default=120.0, help="logging interval (default 120 s)")
@@ -227,7 +230,8 @@ def main(argv: list[str] | None = None) -> int:
     for i, (seed, hidden, _) in enumerate(cases):
         for g in gens:
             for error in args.errors:
-                specs.append((g, seed, hidden, error, i % 2 == 1, 15.0 if args.timing else args.step_s))
+                for structural in ((False, True) if args.both_settings else (i % 2 == 1,)):
+                    specs.append((g, seed, hidden, error, structural, 15.0 if args.timing else args.step_s))
     # generators, mechanism and null cases interleaved: a run cut short (or one --part) holds a balanced share
     hid, nul = [s for s in specs if s[2]], [s for s in specs if not s[2]]
     specs = [s for _, _, s in sorted([(i / len(hid), 0, s) for i, s in enumerate(hid)]

@@ -410,6 +410,9 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
     rivals = [t for t in tested if win and t is not win and t.gain >= RIVAL * win.gain
               and p.kinds[t.judged[0]] in (p.kinds[win.judged[0]], "displacement") and not _beats(win, t)
               and not _decisive(p, win, t, null_sse)]
+    shifted = _shifted(p, win, null_sse) if win and not rivals else None
+    if shifted is not None:
+        rivals = [shifted]
     base_fit = _baseline(p)
     findings, rejected = [], []
     if win and not rivals:
@@ -418,7 +421,10 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
         if t is win and not rivals:
             continue
         reason = t.reason
-        if rivals and t in [win, *rivals]:
+        if shifted is not None and t is win:
+            reason = (f"cannot tell: its driver shifted in time ({shifted.mechanism}) explains the held-out misfit "
+                      f"as well (median fold gain {shifted.gain:.0%} against {t.gain:.0%})")
+        elif rivals and t in [win, *rivals]:
             reason = ("cannot tell: " + ", ".join(x.mechanism for x in [win, *rivals] if x is not t)
                       + f" explains the held-out misfit as well (median fold gain {t.gain:.0%}, within {RIVAL:.0%} of the "
                       "best)")
@@ -450,6 +456,20 @@ def _pair_sse(p: Problem, parts: list[Tested], judged: list[int]) -> float:
             beta = _solve(X, y, train, sign, first)
             total += float(np.sum((y[test] - X[test] @ beta) ** 2)) / p.sigma[j] ** 2
     return total
+
+
+def _shifted(p: Problem, win: Tested, null_sse: np.ndarray) -> Tested | None:
+    """The winner's form with its recorded input circularly shifted by a third and two thirds of the recording,
+    when one such explains :data:`RIVAL` of its median fold gain (a slow input fits any slow misfit through a
+    free lag; a real path fits its own timing better), else None. Speed-driven forms are not shifted."""
+    if win.form["driver"] not in sim_forms.INPUT_ROLES:
+        return None
+    n = len(p.recording.time_s)
+    for k in (n // 3, 2 * n // 3):
+        t = assess_form(p, f"{win.mechanism} shifted {k} rows", dict(win.form, shift_rows=k), null_sse)
+        if t.gain >= RIVAL * win.gain:
+            return t
+    return None
 
 
 def _beats(win: Tested, rival: Tested) -> bool:

@@ -111,8 +111,8 @@ def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.n
     """The form's driver series before its lag (one per exponent for ``speed_power``); ``sim_excess`` the
     channel's simulated excess, ``amb_excess`` the mean simulated temperature excess over ambient."""
     d = form["driver"]
-    if d in INPUT_ROLES:
-        return [inputs.inputs[d]]
+    if d in INPUT_ROLES:  # ``shift_rows``: the recorded series circularly shifted (a specificity check)
+        return [np.roll(inputs.inputs[d], int(form.get("shift_rows", 0)))]
     if d == "speed_power":
         return [inputs.r ** p for p in form.get("exponents", (0.75, 3.0))]
     if d == "speed_squared":
