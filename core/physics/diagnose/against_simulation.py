@@ -33,7 +33,8 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  share on :data:`BEATS` of the folds) or is decisive against it: fitted together, the best
                  removes
                  :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival removes of what
-                 the best leaves
+                 the best leaves. A best driven by a recorded input must also beat that input shifted in time
+                 (:func:`_shifted`)
     model        the winner fitted on the rows before the final block: simulation + null + its correction, its
                  gains per channel and its lag with finite intervals, the windows where it acts, and the
                  held-out fit before and after (``report.json`` keeps its shape)
