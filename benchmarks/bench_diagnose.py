@@ -34,6 +34,7 @@ Run::
     python benchmarks/bench_diagnose.py --full --results rows.jsonl   # a run cut off goes on where it stopped
     python benchmarks/bench_diagnose.py --generator lumped --full --step-s 15 --seeds 0 511   # two cases, 15 s log
     python benchmarks/bench_diagnose.py --full --seed-offset 100      # an unseen set: every case seed shifted
+    python benchmarks/bench_diagnose.py --generator fd --stochastic   # also diagnose --stochastic, side by side
 
 ``--results`` keeps one JSON line per finished case and skips the cases already in it, so a long run can be
 split into several shorter ones; start a new file after changing the code.
@@ -58,6 +59,7 @@ from thermodrift.core.physics.diagnose.concealed import concealed_case, random_n
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+import bench_diagnose_stochastic  # noqa: E402 - the stochastic mode's rows and table, next to this script
 import independent  # noqa: E402 - the independent generator package next to this script
 DEFAULT_DATA = HERE.parent.parent / "shared" / "data" / "fl_thermal"
 HIDDEN = ["ambient_coupling", "coolant_coupling", "cutting_heat", "speed_dependent_convection", "bearing_heat_law",
@@ -146,12 +148,14 @@ def _trace(d) -> list[dict]:
             for t in d.trace]
 
 
-def run_independent(gen, seed: int, folder: Path) -> dict:
-    """Diagnose one independent recording through the public file format (table + manifest, auto baseline)."""
+def run_independent(gen, seed: int, folder: Path, stochastic: bool = False) -> dict:
+    """Diagnose one independent recording through the public file format (table + manifest, auto baseline);
+    ``stochastic``: the stochastic mode on the same files too (the ``st_*`` fields, :mod:`bench_diagnose_stochastic`)."""
     from thermodrift.core.physics.diagnose import report as dx_report
     from thermodrift.core.recording import load_recording
 
-    rec = load_recording(*gen.write(folder))
+    files = gen.write(folder)
+    rec = load_recording(*files)
     start = time.perf_counter()
     d = diagnose(rec, None, seed=seed)
     seconds = time.perf_counter() - start
@@ -165,7 +169,8 @@ def run_independent(gen, seed: int, folder: Path) -> dict:
     r = r - r.mean()
     why = next((x["reason"] for x in doc["rejected"] if x["mechanism"] == gen.hidden), "")
     noise = gen.info["probe_noise_um"]
-    return {"case": gen.name, "seed": gen.seed, "hidden": gen.hidden or "none", "top1": top,
+    st = bench_diagnose_stochastic.run_stochastic(*files, gen.hidden, seed) if stochastic else {}
+    return {**st, "case": gen.name, "seed": gen.seed, "hidden": gen.hidden or "none", "top1": top,
             "found": [f["mechanism"] for f in d.findings], "findings": len(d.findings), "seconds": seconds,
             "cut": 1 - after / before if before > 0 else 0.0, "cut_channel": ch,
             "cut_excess": (1 - np.sqrt(max(after ** 2 - noise ** 2, 0.0)) / np.sqrt(before ** 2 - noise ** 2)
@@ -350,6 +355,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sealed-base", type=int, default=independent.SEALED_FROM, metavar="SEED",
                     help="with --sealed: the first seed of the sealed range (a multiple of 1000; 1000, 3000, 5000 and "
                          "7000 have each been run once: pick a fresh one)")
+    ap.add_argument("--stochastic", action="store_true", help="with --generator fd|lumped: every case also through "
+                    "the stochastic mode (diagnose --stochastic), reported beside the output-error mode")
     ap.add_argument("--only", nargs="+", metavar="MECHANISM", help="with --generator fd: only these hidden "
                     "mechanisms (and 'none' for the nulls)")
     ap.add_argument("--step-s", type=float, default=120.0, metavar="SECONDS",
@@ -372,10 +379,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"# diagnose benchmark, pooled over {', '.join(str(f) for f in args.pool)}\n")
         synthetic, fl = [r for r in rows if "hidden" in r], [r for r in rows if "hidden" not in r]
         print(report(synthetic, fl, args) if synthetic else report_fl(fl))
+        print(bench_diagnose_stochastic.report(synthetic))
         return 0
-    independent_only = args.sealed or args.only or args.timing or args.seeds or args.step_s != 120.0
+    independent_only = args.sealed or args.only or args.timing or args.seeds or args.step_s != 120.0 or args.stochastic
     if independent_only and args.generator == "library":
-        ap.error("--sealed, --only, --seeds, --step-s and --timing need --generator fd or lumped")
+        ap.error("--sealed, --only, --seeds, --step-s, --timing and --stochastic need --generator fd or lumped")
     done = {}
     if args.results and args.results.is_file():
         for line in args.results.read_text(encoding="utf-8").splitlines():
@@ -450,7 +458,7 @@ def main_independent(args, done: dict, start: float) -> int:
             gen = independent.make_case(seed, hidden, dt_s=dt, constant_drivers=constant, generator=args.generator)
             gen.name = name
             try:
-                r = run_independent(gen, args.seed, Path(tmp))
+                r = run_independent(gen, args.seed, Path(tmp), args.stochastic)
             except InputError as exc:  # the generator's recording is unusable (a planted feedback ran away)
                 print(f"{name:<44} not diagnosed: {exc}", file=sys.stderr, flush=True)
                 continue
@@ -458,7 +466,8 @@ def main_independent(args, done: dict, start: float) -> int:
             if args.results:
                 with args.results.open("a", encoding="utf-8") as fh:
                     fh.write(json.dumps(r) + "\n")
-            print(f"{r['case']:<44} top-1 {r['top1']:<28} cut {r['cut']:5.0%} {r['seconds']:6.1f} s",
+            st = f" | stochastic {r['st_top1']:<26} {r['st_seconds']:6.1f} s" if "st_top1" in r else ""
+            print(f"{r['case']:<44} top-1 {r['top1']:<28} cut {r['cut']:5.0%} {r['seconds']:6.1f} s{st}",
                   file=sys.stderr, flush=True)
     if args.fl and not (args.data / "data.xlsx").is_file():
         print(f"bench diagnose: {args.data / 'data.xlsx'} not found; pass --data FOLDER", file=sys.stderr)
@@ -470,6 +479,7 @@ def main_independent(args, done: dict, start: float) -> int:
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(f"Amplitude rule: {independent.AMPLITUDE_RULE}.\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
+    print(bench_diagnose_stochastic.report(rows))
     return 0
 
 
