@@ -13,6 +13,7 @@ from thermodrift.core.physics import stochastic as sto
 from thermodrift.core.physics.stochastic import kalman, whiteness
 from thermodrift.core.physics.stochastic.fit import Param, loglik
 from thermodrift.core.physics.stochastic.rc import RCNetwork
+from thermodrift.core.physics.stochastic.sde import System
 
 A = np.array([[-0.5, 0.3], [0.2, -0.1]])
 B = np.array([[0.4, 0.0], [0.0, 0.1]])
@@ -148,3 +149,14 @@ def test_transformations_round_trip_and_respect_bounds():
         assert p.from_eta(p.to_eta(p.value)) == pytest.approx(p.value)
         for eta in (-50.0, 50.0):
             assert p.low <= p.from_eta(eta) <= p.high
+
+
+@pytest.mark.parametrize("a", [0.5, 4.0, 1e4])
+def test_the_step_noise_is_exact_for_slow_and_stiff_states(a):
+    """dx = −a x dt + σ dW: Q_Δ = σ²/(2a)(1 − e^{−2aΔ}), also where Van Loan's block would overflow (aΔ = 2500)."""
+    sigma, dt = 0.3, 0.25
+    s = System(np.array([[[-a]]]), np.zeros((1, 1, 1)), np.eye(1), np.zeros((1, 1)), np.array([sigma]),
+               np.array([0.1]))
+    _, _, Q = s.discrete(0, dt)
+    assert np.isfinite(Q).all()
+    assert Q[0, 0] == pytest.approx(sigma ** 2 / (2 * a) * (1 - math.exp(-2 * a * dt)), rel=1e-9)

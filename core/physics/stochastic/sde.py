@@ -9,8 +9,11 @@ machine-tool networks: one (A, B) per spindle-speed level; a building has one): 
 The step of length Δ is exact: (Φ, Γ) from one matrix exponential of [[A, B], [0, 0]]Δ (the compensator's
 :func:`~thermodrift.compensator.physics.exact_step`) and the process-noise covariance
 Q_Δ = ∫₀^Δ e^{As} Σ e^{Aᵀs} ds, Σ = diag(σ²), by Van Loan's method: with M = [[−A, Σ], [0, Aᵀ]]Δ and
-E = e^M, Φ = E₂₂ᵀ and Q_Δ = Φ E₁₂. Units: whatever time unit A is in (``time_unit_s`` seconds); σ in state units
-per √(time unit), r in output units.
+E = e^M, Φ = E₂₂ᵀ and Q_Δ = Φ E₁₂. Van Loan's block grows as e^{|λ|Δ} for a fast mode λ and loses every digit (or
+overflows) on a stiff system, e.g. a fast sensor or heater state; where A is stable and some |λ|Δ exceeds ``STIFF``,
+Q_Δ = P − Φ P Φᵀ instead, with P the stationary covariance (A P + P Aᵀ + Σ = 0, scipy's Lyapunov solver).
+Units: whatever time unit A is in (``time_unit_s`` seconds); σ in state units per √(time unit), r in output
+units.
 """
 
 from __future__ import annotations
@@ -18,9 +21,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm
+from scipy.linalg import expm, solve_continuous_lyapunov
 
 from thermodrift.compensator.physics import exact_step
+
+STIFF = 10.0  # |λ|Δ above which the step's noise covariance comes from the Lyapunov equation
 
 
 @dataclass(frozen=True)
@@ -50,6 +55,11 @@ class System:
         A, B = self.A[level], self.B[level]
         Phi, Gam = exact_step(A, B, dt)
         n = len(A)
+        lam = np.linalg.eigvals(A)
+        if lam.real.max() < 0 and np.abs(lam).max() * dt > STIFF:
+            P = solve_continuous_lyapunov(A, -np.diag(self.sigma ** 2))
+            Q = P - Phi @ P @ Phi.T
+            return Phi, Gam, 0.5 * (Q + Q.T) + 1e-14 * np.eye(n)
         M = np.zeros((2 * n, 2 * n))
         M[:n, :n], M[:n, n:], M[n:, n:] = -A * dt, np.diag(self.sigma ** 2) * dt, A.T * dt
         E = expm(M)

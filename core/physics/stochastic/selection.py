@@ -6,8 +6,9 @@ by likelihood and accepts it when the likelihood-ratio test against the current 
 Starts: the one-state model from a least-squares fit of its Euler discretisation (ΔTi/Δt on Ta − Ti, Ps and the
 heating), so the search begins at the recording's own heat and irradiance scales; each extension from the current
 model's estimates plus the mechanism's defaults rescaled to that heat scale (:func:`~.building.rescaled`; a new
-aperture at the interior aperture's estimate), again with the parameters the parent left on a bound moved back to
-where they started (:func:`extension_starts`), and ``starts − 1`` more points drawn from ``seed``.
+aperture at the interior aperture's estimate), again with the new state fast (nearly the parent) and with the
+parameters the parent left on a bound moved back to where they started (:func:`extension_starts`), and
+``starts − 1`` more points drawn from ``seed``.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from thermodrift.core.physics.stochastic.sde import Series
 
 ALPHA = 0.05
 DEFAULT_HTC = 0.2  # the building mechanisms' defaults: 1 / Ria = 1 / (5 K/kW)
+FAST = 1e-3        # a new state's capacity in the "fast" start, relative to its default
 
 
 @dataclass
@@ -110,7 +112,9 @@ def extension_starts(parent: Estimate, ext: RCNetwork, scale: float, origin: dic
     their defaults rescaled to the recording's heat scale (a new aperture at the interior's), and, when a parent
     parameter ended on a bound, the same with those parameters back at the values they started from when they
     entered the model (``origin``): a state the parent lacked often needs what the parent switched off, e.g. the
-    interior's solar aperture, and a search cannot leave a bound that the likelihood is flat at."""
+    interior's solar aperture, and a search cannot leave a bound that the likelihood is flat at. One more start
+    has the new capacities ``FAST`` times smaller: a new state that fast follows its neighbours, so the extension
+    starts close to its parent's likelihood and a fit that finds nothing more ends near it, not below it."""
     params = parent.model.parameters
     base = {p.name: p.from_eta(e) for p, e in zip(params, parent.eta)}
     defaults = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0).values()
@@ -122,7 +126,8 @@ def extension_starts(parent: Estimate, ext: RCNetwork, scale: float, origin: dic
     reset = {**start, **{k: origin[k] for k in bounded}}
     if "Aw" in bounded:
         reset.update({k: origin["Aw"] for k in new if k.startswith("A")})
-    return ext.with_values(start), ([reset] if bounded else [])
+    fast = {**start, **{k: start[k] * FAST for k in new if k.startswith("C")}}
+    return ext.with_values(start), [fast] + ([reset] if bounded else [])
 
 
 def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0, starts: int = 2,
