@@ -31,6 +31,7 @@ Run::
     python benchmarks/bench_greybox.py --cases 24          # every structure once per simulator
     python benchmarks/bench_greybox.py --sealed --cases 24 # the sealed half, once
     python benchmarks/bench_greybox.py --houses --cases 0  # the three real houses only (--houses 2: house 2)
+    python benchmarks/bench_greybox.py --pick 1 5 9        # only those cases of the list (0-based)
 
 ``--json FILE`` writes every case. Times are wall times on a shared machine: noisy.
 """
@@ -117,9 +118,11 @@ def score_case(house: house_sde.House, df: pd.DataFrame, seed: int) -> dict:
     return row
 
 
-def simulation(cases: int, sealed: bool, sims: list[str], log) -> list[dict]:
+def simulation(cases: int, sealed: bool, sims: list[str], log, pick: list[int] | None = None, base: int = 0
+               ) -> list[dict]:
     rows = []
-    for seed, structure in house_sde.case_list(sealed, cases):
+    listed = house_sde.case_list(sealed, max([cases, *(i + 1 for i in pick or ())]), base)
+    for seed, structure in ([listed[i] for i in pick] if pick else listed):
         house, df = house_sde.make_case(seed, structure)
         for sim in sims:
             rec = df if sim == "independent" else engine_recording(house, df, seed)
@@ -179,6 +182,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=1, help="simulated houses per simulator")
     ap.add_argument("--sealed", action="store_true", help="the sealed seed half (run once, at the end)")
+    ap.add_argument("--base", type=int, default=0, help="first seed within the half (a fresh range: e.g. 100)")
+    ap.add_argument("--pick", nargs="+", type=int, help="only these cases of the list (0-based; instead of --cases)")
     ap.add_argument("--sims", nargs="+", default=["independent", "engine"], choices=["independent", "engine"])
     ap.add_argument("--houses", nargs="*", type=int, choices=(1, 2, 3),
                     help="also the real houses (all three without numbers; 24 h ahead on the last 14 days)")
@@ -192,8 +197,8 @@ def main(argv=None) -> int:
     def log(line: str) -> None:
         print(line, flush=True)
 
-    if args.cases:
-        rows = simulation(args.cases, args.sealed, args.sims, log)
+    if args.cases or args.pick:
+        rows = simulation(args.cases, args.sealed, args.sims, log, args.pick, args.base)
         result["cases"], result["summary"] = rows, summary(rows)
         print(f"\n{'half':9s} {'simulator':12s} {'cases':>5s} {'recovered':>9s} {'CI cover':>13s} "
               f"{'(identif.)':>13s} {'HTC ±10%':>8s}")
