@@ -59,7 +59,7 @@ from thermodrift.core.physics.diagnose.concealed import concealed_case, random_n
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
-import bench_diagnose_stochastic  # noqa: E402 - the stochastic mode's rows and table, next to this script
+import diagnose_stochastic  # noqa: E402 - the stochastic mode's rows and table, next to this script
 import independent  # noqa: E402 - the independent generator package next to this script
 DEFAULT_DATA = HERE.parent.parent / "shared" / "data" / "fl_thermal"
 HIDDEN = ["ambient_coupling", "coolant_coupling", "cutting_heat", "speed_dependent_convection", "bearing_heat_law",
@@ -150,7 +150,7 @@ def _trace(d) -> list[dict]:
 
 def run_independent(gen, seed: int, folder: Path, stochastic: bool = False) -> dict:
     """Diagnose one independent recording through the public file format (table + manifest, auto baseline);
-    ``stochastic``: the stochastic mode on the same files too (the ``st_*`` fields, :mod:`bench_diagnose_stochastic`)."""
+    ``stochastic``: the stochastic mode on the same files too (the ``st_*`` fields, :mod:`diagnose_stochastic`)."""
     from thermodrift.core.physics.diagnose import report as dx_report
     from thermodrift.core.recording import load_recording
 
@@ -169,7 +169,7 @@ def run_independent(gen, seed: int, folder: Path, stochastic: bool = False) -> d
     r = r - r.mean()
     why = next((x["reason"] for x in doc["rejected"] if x["mechanism"] == gen.hidden), "")
     noise = gen.info["probe_noise_um"]
-    st = bench_diagnose_stochastic.run_stochastic(*files, gen.hidden, seed) if stochastic else {}
+    st = diagnose_stochastic.run_stochastic(*files, gen.hidden, seed) if stochastic else {}
     return {**st, "case": gen.name, "seed": gen.seed, "hidden": gen.hidden or "none", "top1": top,
             "found": [f["mechanism"] for f in d.findings], "findings": len(d.findings), "seconds": seconds,
             "cut": 1 - after / before if before > 0 else 0.0, "cut_channel": ch,
@@ -379,7 +379,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"# diagnose benchmark, pooled over {', '.join(str(f) for f in args.pool)}\n")
         synthetic, fl = [r for r in rows if "hidden" in r], [r for r in rows if "hidden" not in r]
         print(report(synthetic, fl, args) if synthetic else report_fl(fl))
-        print(bench_diagnose_stochastic.report(synthetic))
+        print(diagnose_stochastic.report(synthetic))
         return 0
     independent_only = args.sealed or args.only or args.timing or args.seeds or args.step_s != 120.0 or args.stochastic
     if independent_only and args.generator == "library":
@@ -479,7 +479,7 @@ def main_independent(args, done: dict, start: float) -> int:
           f"{time.perf_counter() - start:.0f} s in all)\n")
     print(f"Amplitude rule: {independent.AMPLITUDE_RULE}.\n")
     print(report(rows, fl, args) if rows else report_fl(fl))
-    print(bench_diagnose_stochastic.report(rows))
+    print(diagnose_stochastic.report(rows))
     return 0
 
 

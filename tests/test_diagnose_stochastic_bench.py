@@ -10,7 +10,7 @@ from support import load_file
 BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
 sys.path.insert(0, str(BENCH))
 BENCHMARK = load_file(BENCH / "bench_diagnose.py")
-SIDE = load_file(BENCH / "bench_diagnose_stochastic.py")
+SIDE = load_file(BENCH / "diagnose_stochastic.py")
 
 
 def _row(hidden, oe, st):
