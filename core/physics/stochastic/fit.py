@@ -178,8 +178,8 @@ def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: 
         **options) -> Estimate:
     """Maximum-likelihood estimate of ``model`` on ``data`` (see the module docstring); ``options`` go to the
     filter (``p0``, ``init_rows``, ``tol``, ``transient``). The search stops when an iteration gains less than
-    1e-8 of the mean log-likelihood per sample (``ftol``; 1e-10 with ``polish``) or after ``maxiter``
-    iterations per start; ``polish`` restarts from the best start's end (see the module docstring). ``also``:
+    1e-8 of the mean log-likelihood per sample (``ftol``) or after ``maxiter`` iterations per start;
+    ``polish`` restarts from the best start's end with ``ftol`` 1e-10 (see the module docstring). ``also``:
     more start points (name → value; a missing name takes the model's value), searched before the random ones."""
     params = model.parameters
     clock = time.perf_counter()

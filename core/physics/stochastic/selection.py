@@ -116,7 +116,7 @@ def extension_starts(parent: Estimate, ext: RCNetwork, scale: float, origin: dic
     has the new capacities ``FAST`` times smaller: a new state that fast follows its neighbours, so the extension
     starts close to its parent's likelihood and a fit that finds nothing more ends near it, not below it."""
     params = parent.model.parameters
-    base = {p.name: p.from_eta(e) for p, e in zip(params, parent.eta)}
+    base = dict(parent.values)
     defaults = rescaled(ext, scale if math.isfinite(scale) and scale > 0 else 1.0).values()
     new = set(defaults) - set(base)
     start = {**base, **{k: defaults[k] for k in new}}
