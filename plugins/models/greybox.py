@@ -73,14 +73,15 @@ class GreyBox(ThermalModel):
     automl_cost: ClassVar[str] = "expensive"
     automl_features: ClassVar[bool] = False
 
-    def __init__(self, structure: str = "select", starts: int = 2, random_state: int = 0):
+    def __init__(self, structure: str = "select", starts: int = 2, maxiter: int = 300, random_state: int = 0):
         self.structure = structure
         self.starts = starts
+        self.maxiter = maxiter  # search iterations per start of one fit (Ti, generic); the selection keeps its own
         self.random_state = random_state
 
     @classmethod
     def get_test_params(cls):
-        return [{"structure": "Ti", "starts": 1}]
+        return [{"structure": "Ti", "starts": 1, "maxiter": 120}]
 
     @classmethod
     def search_space(cls):
@@ -106,7 +107,7 @@ class GreyBox(ThermalModel):
                     est = forward_select(net, data, seed=self.random_state, starts=self.starts).selected.estimate
                 else:
                     est = sto.fit(ti_start(net, data), data, seed=self.random_state, starts=self.starts,
-                                  information=False)
+                                  maxiter=self.maxiter, information=False)
                 self.structures_.append(sto.structure_name(est.model))
             else:
                 self.columns_ = list(X.columns)
@@ -114,7 +115,7 @@ class GreyBox(ThermalModel):
                 coef, *_ = np.linalg.lstsq(np.column_stack([U[:, :-1], np.ones(len(U))]), y[:, j], rcond=None)
                 model = FirstOrder(tuple(self.columns_), tuple(float(c) for c in coef), float(np.std(y[:, j])))
                 est = sto.fit(model, sto.Series.of(t, U, y[:, j:j + 1]), seed=self.random_state,
-                              starts=self.starts, information=False)
+                              starts=self.starts, maxiter=self.maxiter, information=False)
                 self.structures_.append(model.name)
             self.systems_.append(est.system)
 
