@@ -166,6 +166,23 @@ def loglik(model: Model, data: Series, values: Mapping[str, float], **options) -
         return -math.inf
 
 
+def loglik_gradient(model: Model, data: Series, eta: np.ndarray, lo: np.ndarray, hi: np.ndarray, **options
+                    ) -> tuple[float, np.ndarray]:
+    """The innovations log-likelihood at ``eta`` (the search scale) and its gradient along η (:mod:`.gradient`);
+    (−inf, zeros) where the system is not usable."""
+    from thermodrift.core.physics.stochastic import gradient
+
+    params = model.parameters
+    try:
+        with np.errstate(all="ignore"):
+            d = gradient.derivatives(lambda e: model.system(_values(params, e)), eta, lo, hi, data,
+                                     options.get("init_rows", 96))
+            ll, g = gradient.run(model.system(_values(params, eta)), d, data, **options)
+    except (np.linalg.LinAlgError, ValueError, FloatingPointError):
+        return -math.inf, np.zeros(len(eta))
+    return (ll, g) if math.isfinite(ll) and np.isfinite(g).all() else (-math.inf, np.zeros(len(eta)))
+
+
 def one_thread():
     """Context: BLAS on one thread (threadpoolctl ships with scikit-learn)."""
     from threadpoolctl import threadpool_limits
@@ -175,16 +192,22 @@ def one_thread():
 
 def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: int = 300,
         information: bool = True, polish: bool = True, also: Sequence[Mapping[str, float]] = (),
-        **options) -> Estimate:
+        gradient: bool = True, **options) -> Estimate:
     """Maximum-likelihood estimate of ``model`` on ``data`` (see the module docstring); ``options`` go to the
     filter (``p0``, ``init_rows``, ``tol``, ``transient``). The search stops when an iteration gains less than
     1e-8 of the mean log-likelihood per sample (``ftol``) or after ``maxiter`` iterations per start;
     ``polish`` restarts from the best start's end with ``ftol`` 1e-10 (see the module docstring). ``also``:
-    more start points (name → value; a missing name takes the model's value), searched before the random ones."""
+    more start points (name → value; a missing name takes the model's value), searched before the random ones.
+    ``gradient``: the log-likelihood's gradient by forward sensitivities (:mod:`.gradient`, one filter pass per
+    gradient) rather than L-BFGS-B's finite differences (k + 1 passes per gradient, k parameters)."""
     params = model.parameters
     clock = time.perf_counter()
     n_evals = 0
+    gradient = gradient and "x0" not in options
     scale = 1.0 / max(len(data), 1)
+
+    bounds = [p.eta_bounds for p in params]
+    lo, hi = np.array(bounds).T
 
     def objective(eta: np.ndarray) -> float:
         nonlocal n_evals
@@ -193,15 +216,22 @@ def fit(model: Model, data: Series, *, seed: int = 0, starts: int = 3, maxiter: 
             ll = loglik(model, data, _values(params, eta), **options)
         return -ll * scale if math.isfinite(ll) else 1e10
 
+    def objective_grad(eta: np.ndarray) -> tuple[float, np.ndarray]:
+        nonlocal n_evals
+        n_evals += 1
+        ll, g = loglik_gradient(model, data, eta, lo, hi, **options)
+        return (-ll * scale, -g * scale) if math.isfinite(ll) else (1e10, np.zeros(len(eta)))
+
     eta0 = np.array([p.to_eta(p.value) for p in params])
-    bounds = [p.eta_bounds for p in params]
-    lo, hi = np.array(bounds).T
     rng = np.random.default_rng(seed)
     given = [np.array([p.to_eta(v.get(p.name, p.value)) for p in params]) for v in also]
     drawn = [np.clip(eta0 + rng.standard_normal(len(eta0)), lo, hi) for _ in range(max(starts, 1) - 1)]
     points = [eta0, *given, *drawn]
 
     def search(x0: np.ndarray, ftol: float = 1e-8):
+        if gradient:
+            return minimize(objective_grad, x0, jac=True, method="L-BFGS-B", bounds=bounds,
+                            options={"maxiter": maxiter, "ftol": ftol})
         return minimize(objective, x0, method="L-BFGS-B", bounds=bounds, options={"maxiter": maxiter, "ftol": ftol})
 
     best, start_ll = None, []

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import expm, solve_continuous_lyapunov
+from scipy.linalg import expm, expm_frechet, solve_continuous_lyapunov
 
 from thermodrift.compensator.physics import exact_step
 
@@ -65,6 +65,43 @@ class System:
         E = expm(M)
         Q = Phi @ E[:n, n:]
         return Phi, Gam, 0.5 * (Q + Q.T) + 1e-14 * np.eye(n)
+
+    def discrete_derivatives(self, level: int, dt: float, dA: np.ndarray, dB: np.ndarray, dsigma: np.ndarray):
+        """(Φ, Γ, Q_Δ) of :meth:`discrete` and their derivatives (k × …) along k directions (dA: k × n × n, dB:
+        k × n × m, dsigma: k × n): Fréchet derivatives of the same matrix exponentials (scipy's ``expm_frechet``);
+        on the stiff branch the Lyapunov equation differentiated, A dP + dP Aᵀ = −(dA P + P dAᵀ + dΣ), and
+        dQ = dP − dΦ P Φᵀ − Φ dP Φᵀ − Φ P dΦᵀ."""
+        Phi, Gam, Q = self.discrete(level, dt)
+        A, B = self.A[level], self.B[level]
+        n, m, k = len(A), B.shape[1], len(dA)
+        aug = np.zeros((n + m, n + m))
+        aug[:n, :n], aug[:n, n:] = A * dt, B * dt
+        dPhi, dGam, dQ = np.empty((k, n, n)), np.empty((k, n, m)), np.empty((k, n, n))
+        dSig = np.einsum("ij,kj->kij", np.eye(n), 2.0 * self.sigma * dsigma)
+        daug = np.zeros((n + m, n + m))
+        for i in range(k):
+            daug[:n, :n], daug[:n, n:] = dA[i] * dt, dB[i] * dt
+            L = expm_frechet(aug, daug, compute_expm=False, check_finite=False)
+            dPhi[i], dGam[i] = L[:n, :n], L[:n, n:]
+        lam = np.linalg.eigvals(A)
+        if lam.real.max() < 0 and np.abs(lam).max() * dt > STIFF:
+            P = solve_continuous_lyapunov(A, -np.diag(self.sigma ** 2))
+            rhs = dA @ P
+            rhs = rhs + np.swapaxes(rhs, 1, 2) + dSig
+            lyap = np.kron(A, np.eye(n)) + np.kron(np.eye(n), A)  # A X + X Aᵀ on row-major vec(X)
+            dP = -np.linalg.solve(lyap, rhs.reshape(k, -1).T).T.reshape(k, n, n)
+            T = dPhi @ (P @ Phi.T)
+            dQ = dP - T - np.swapaxes(T, 1, 2) - Phi @ dP @ Phi.T
+        else:
+            M = np.zeros((2 * n, 2 * n))
+            M[:n, :n], M[:n, n:], M[n:, n:] = -A * dt, np.diag(self.sigma ** 2) * dt, A.T * dt
+            E = expm(M)
+            dM = np.zeros((2 * n, 2 * n))
+            for i in range(k):
+                dM[:n, :n], dM[:n, n:], dM[n:, n:] = -dA[i] * dt, dSig[i] * dt, dA[i].T * dt
+                dE = expm_frechet(M, dM, compute_expm=False, check_finite=False)
+                dQ[i] = dPhi[i] @ E[:n, n:] + Phi @ dE[:n, n:]
+        return Phi, Gam, Q, dPhi, dGam, 0.5 * (dQ + np.swapaxes(dQ, 1, 2))
 
     def steady_state(self, level: int, u: np.ndarray) -> np.ndarray:
         """The equilibrium state at constant input ``u`` (least squares where A is singular)."""
