@@ -181,3 +181,22 @@ def test_the_decision_is_the_median_fold_gain_robust_to_one_fold_and_the_final_b
     # too few folds better
     k = against_simulation.IMPROVED - 1
     assert not _tested([0.9] * (k - 1) + [-0.1] * (n - k) + [0.9]).consistent
+
+
+def test_a_spindle_side_heat_term_keeps_its_physical_sign_on_the_drift():
+    """The drift's simulated sense for the spindle's heat is read from the simulation (a z that falls as the
+    spindle warms has sense −1), and the spindle-side forms declare that their sign holds on the drift."""
+    from thermodrift.core.physics.diagnose import sim_forms
+
+    t = np.linspace(0.0, 1.0, 50)
+    excess = np.column_stack([2.0 * t, 0.5 * t, -3.0 * t])  # hot spindle, column, a z drift that falls
+    kinds = ["temperature", "temperature", "displacement"]
+    assert sim_forms.hottest(excess, kinds) == 0
+    assert sim_forms.sense(excess, kinds, 2) == -1
+    assert sim_forms.sense(np.column_stack([excess[:, :2], 3.0 * t]), kinds, 2) == 1
+    inputs = sim_forms.Inputs(t, np.ones_like(t), {"ambient": 0.1 * t})
+    drift = sim_forms.surfaces(inputs, excess, kinds, 2, excess[:, :2].mean(axis=1) - 0.1 * t)
+    assert len(drift) == 2 and np.allclose(drift[0], 1.9 * t)  # the spindle's excess over the air, and the mean
+    assert np.allclose(sim_forms.surfaces(inputs, excess, kinds, 1, drift[1])[0], 0.4 * t)
+    for mid in ("speed_dependent_convection", "preload_feedback"):
+        assert sim_forms.form_of(registry.default().get("mechanism", mid).factory)["drift_sense"] is True

@@ -26,7 +26,8 @@ class PreloadFeedback(Mechanism):
     drivers = ("speed",)
     signature = "super-linear, self-reinforcing growth at high speed; ∝ (T_shaft − T_housing)·n"
     # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
-    simulation_form = {"driver": "heat_feedback", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1}
+    simulation_form = {"driver": "heat_feedback", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1,
+                       "drift_sense": True}
     laws = ("heat ∝ speed × (T_shaft − T_housing)",)
 
     def _apply(self, network, p, o):

@@ -28,7 +28,8 @@ class SpeedDependentConvection(Mechanism):
     drivers = ("speed",)
     signature = "steady state over-predicted at high n; cool-down τ differs from warm-up τ"
     # its form against a simulation (diagnose --simulation; see thermodrift.core.physics.diagnose.sim_forms)
-    simulation_form = {"driver": "speed_convection", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1}
+    simulation_form = {"driver": "speed_convection", "taus_s": (600.0, 1800.0, 7200.0), "sign": 1,
+                       "drift_sense": True}
     laws = ("film coefficient as a power of speed",)
 
     def _apply(self, network, p, o):

@@ -223,7 +223,8 @@ def _make_design(p: Problem, j: int, form: dict | None, tau: float) -> tuple[np.
     if form["driver"] == "sensor_lag":  # fixed form: the channel reads simulation + correction through a lag
         lag = p.inputs.lag
         return np.column_stack([lag(z, tau) for z in Z.T]), p.measured[:, j] - lag(p.sim[:, j], tau), Z.shape[1]
-    cols = [p.inputs.lag(x, tau) for x in sim_forms.drivers(form, p.inputs, p.excess[:, j], p.amb_excess)]
+    local = sim_forms.surfaces(p.inputs, p.excess, p.kinds, j, p.amb_excess)
+    cols = [p.inputs.lag(x, tau) for x in sim_forms.drivers(form, p.inputs, p.excess[:, j], p.amb_excess, local)]
     return np.column_stack([Z, *cols]), y, Z.shape[1]
 
 
@@ -244,7 +245,8 @@ def _reached(p: Problem, form: dict) -> list[int]:
 
 def _fit_channel(p: Problem, j: int, form: dict | None, taus, train: np.ndarray):
     """Best lag for channel ``j`` on ``train`` rows: (tau, beta, design, target, first, weighted train SSE)."""
-    sign = int(form.get("sign", 0)) if form and p.kinds[j] == "temperature" else 0
+    sign = int(form.get("sign", 0)) * (1 if p.kinds[j] == "temperature" else sim_forms.sense(  # the physical sign
+        p.excess, p.kinds, j) if form.get("drift_sense") else 0) if form else 0
     best = None
     for tau in taus:
         X, y, first = _design(p, j, form, tau)

@@ -7,7 +7,12 @@ A mechanism takes part in ``diagnose --simulation`` by declaring a class attribu
                        "taus_s": (1800.0, 7200.0, 28800.0),  # first-order lags tried (s); the fit picks one
                        "reaches": ("temperature", "displacement"),
                        "sign": 1,                          # sign of its effect on temperatures (0: either)
-                       "axes": ("z",)}                     # optional: only drift channels of these axes
+                       "axes": ("z",),                     # optional: only drift channels of these axes
+                       "drift_sense": True}                # optional: the sign holds on drift channels too
+
+``drift_sense``: a heat term on the spindle side moves the drift the way the spindle's own heat does, so its sign
+holds on a drift channel times that channel's simulated sense (the sign of its simulated excess against the
+hottest simulated temperature channel's, :func:`sense`). Without it the drift coefficient is free.
 
 Drivers (each a series on the recording's times, zero at the start; ``r`` = speed / top speed; ``s_j`` the
 simulated excess of channel j over its start; ``T̄`` the mean simulated temperature excess over ambient):
@@ -19,7 +24,9 @@ cutting_power       recorded cutting power (kW)
 axis_velocity       |recorded axis velocity|^1.4 (in units of 10 m/min)
 speed_power         r^p for each exponent in the form's ``exponents`` (heat that follows another law)
 speed_squared       r² (a growth that follows speed itself, not heat)
-speed_convection    −r^0.8 · (simulated temperature excess over ambient): cooling that grows with speed
+speed_convection    −r^0.8 · (simulated excess over the air): cooling that grows with speed, on a temperature
+                    channel of its own excess; on a drift channel two columns, the hottest simulated
+                    temperature channel's (the rotating spindle, cooled most) and the mean's (the surfaces)
 heat_feedback       r^1.5 · lag(r^1.5, 15 min): heat that grows with the heat already put in
 slow_heat           lag(r^1.5, 1 h): heat through a further, slow store (the form's lags act on it)
 sensor_lag          a fixed form, not a regressor: each temperature channel read through a first-order lag
@@ -107,9 +114,11 @@ def missing(form: dict, inputs: Inputs) -> str | None:
     return None
 
 
-def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.ndarray) -> list[np.ndarray]:
+def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.ndarray,
+            local: list[np.ndarray] | None = None) -> list[np.ndarray]:
     """The form's driver series before its lag (one per exponent for ``speed_power``); ``sim_excess`` the
-    channel's simulated excess, ``amb_excess`` the mean simulated temperature excess over ambient."""
+    channel's simulated excess, ``amb_excess`` the mean simulated temperature excess over ambient, ``local``
+    the excesses over the air a surface term acts on (°C; default ``amb_excess``)."""
     d = form["driver"]
     if d in INPUT_ROLES:  # ``shift_rows``: the recorded series circularly shifted (a specificity check)
         return [np.roll(inputs.inputs[d], int(form.get("shift_rows", 0)))]
@@ -118,7 +127,7 @@ def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.n
     if d == "speed_squared":
         return [inputs.r ** 2]
     if d == "speed_convection":
-        return [-(inputs.r ** 0.8) * amb_excess]
+        return [-(inputs.r ** 0.8) * x for x in (local if local is not None else [amb_excess])]
     if d == "heat_feedback":
         h = inputs.heat()
         return [h * inputs.lag(h, 900.0)]
@@ -185,3 +194,26 @@ def null_design(inputs: Inputs, sim_excess: np.ndarray, simulated: list[str]) ->
     for role in simulated:
         cols += [inputs.lag(inputs.inputs[role], tau) for tau in NULL_INPUT_TAUS]
     return np.column_stack(cols)
+
+
+def hottest(excess: np.ndarray, kinds: list[str]) -> int | None:
+    """The temperature channel with the largest simulated range (the spindle side), None without one."""
+    temps = [k for k, kind in enumerate(kinds) if kind == "temperature"]
+    return max(temps, key=lambda k: float(np.ptp(excess[:, k]))) if temps else None
+
+
+def sense(excess: np.ndarray, kinds: list[str], j: int) -> int:
+    """Channel ``j``'s simulated sense for the spindle's heat: +1 when its simulated excess rises with the
+    hottest simulated temperature channel's, −1 when it falls (+1 without temperature channels)."""
+    hot = hottest(excess, kinds)
+    return 1 if hot is None or float(np.dot(excess[:, j], excess[:, hot])) >= 0 else -1
+
+
+def surfaces(inputs: Inputs, excess: np.ndarray, kinds: list[str], j: int, amb_excess: np.ndarray):
+    """The excesses over the air (°C) a surface term acts on for channel ``j``: a temperature channel's own; on
+    a drift channel the hottest simulated temperature channel's (the spindle) and the mean of the surfaces."""
+    air = inputs.inputs.get("ambient", np.zeros(len(excess)))
+    if kinds[j] == "temperature":
+        return [excess[:, j] - air]
+    hot = hottest(excess, kinds)
+    return [amb_excess] if hot is None else [excess[:, hot] - air, amb_excess]
