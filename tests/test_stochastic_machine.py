@@ -64,3 +64,44 @@ def test_diagnose_stochastic_writes_its_selection_report(tmp_path, cli):
     reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
     assert reasons["axis_drive_heat"].startswith("skipped: ")  # no axis velocity channel
     assert doc["verdict"] in proc.stdout
+
+
+def test_a_mechanism_switched_off_gives_its_parent_back():
+    """Where each candidate starts besides its defaults: the parent's own value on a path the parent has (a lag or
+    an exponent offset 0; the lag's low bound lowered towards 0), the declared neutral value on a new one."""
+    from thermodrift.plugins.mechanisms.ambient_coupling import AmbientCoupling
+    from thermodrift.plugins.mechanisms.bearing_heat_law import BearingHeatLaw
+    from thermodrift.plugins.mechanisms.sensor_lag import SensorLag
+
+    net = physics.network_from_dict(SPEC)
+    _, new = SensorLag(sensors=["T_a"]).declare(net)
+    assert new[0].low == 1.0 and machine.reaching_off(SensorLag, new)[0].low == pytest.approx(1e-3)
+    assert machine.nested_start(SensorLag, net, machine.reaching_off(SensorLag, new)) == {"lag_s": pytest.approx(1e-3)}
+    _, rec = _recording(net=net)  # the lag is a state: switched off, the sensor reads its node
+    lagged = machine.NetworkModel(SensorLag(sensors=["T_a"]).apply(net), rec, free=new)
+    plain = machine.NetworkModel(net, rec)
+    values = {p.name: p.value for p in plain.parameters}
+    assert lagged.channels == plain.channels == ["T_a", "T_b"]
+    assert loglik(lagged, lagged.data, {**values, "lag_s": 1e-3}) == pytest.approx(
+        loglik(plain, plain.data, values), abs=0.01)
+    assert loglik(lagged, lagged.data, {**values, "lag_s": 600.0}) < loglik(plain, plain.data, values) - 10
+    _, new = BearingHeatLaw().declare(net)
+    off = machine.nested_start(BearingHeatLaw, net, machine.reaching_off(BearingHeatLaw, new))
+    assert off["exponent_shift"] == 0.0 and off["viscosity_coeff_per_K"] < 1e-6
+    _, new = AmbientCoupling().declare(net)
+    assert machine.nested_start(AmbientCoupling, net, new)["G_W_K"] == new[0].low < 0.01
+
+
+def test_a_candidate_fit_never_ends_below_the_model_it_extends():
+    """Each candidate also starts where it is switched off, so its fit ends at or above its parent's likelihood
+    (it once ended far below, from its defaults, and max(LR, 0) hid it); one that gains nothing is nested."""
+    _, rec = _recording()
+    doc = machine.select_mechanisms(rec, only=["bearing_heat_law", "speed_dependent_convection"], max_rounds=1)
+    base = doc["baseline"]["loglik"]
+    cands = doc["selection_path"][1]["candidates"]
+    assert {c["mechanism"] for c in cands} == {"bearing_heat_law", "speed_dependent_convection"}
+    for c in cands:
+        assert c["off_loglik"] == pytest.approx(base, abs=0.05), c
+        assert c["loglik"] >= base - 0.05, c
+    reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
+    assert reasons["speed_dependent_convection"].startswith("nested")
