@@ -13,11 +13,15 @@ import statistics
 import time
 from pathlib import Path
 
+BELOW_TOL = 0.5  # log-likelihood: a candidate fit ending further below its parent than this is a search failure
+
 
 def run_stochastic(table: Path, manifest: Path, hidden: str | None, seed: int) -> dict:
     """The stochastic mode on one written recording; ``hidden``: the planted mechanism (None on a null).
     Returns ``st_top1`` (the first finding or "none"), ``st_found``, ``st_verdict``, ``st_seconds`` (s, wall),
-    ``st_why_not_hidden`` (the report's reason for the hidden mechanism), ``st_path`` (the selection path)."""
+    ``st_why_not_hidden`` (the report's reason for the hidden mechanism), ``st_path`` (the selection path),
+    ``st_below`` (how far the worst candidate fit ended below the model it extends, log-likelihood; 0 if none did)
+    and ``st_nested`` (candidates reported nested)."""
     from thermodrift.core.physics.stochastic.machine import select_mechanisms
     from thermodrift.core.recording import load_recording
 
@@ -28,8 +32,11 @@ def run_stochastic(table: Path, manifest: Path, hidden: str | None, seed: int) -
     found = [f["mechanism"] for f in doc["findings"]]
     why = next((x["reason"] for x in doc["rejected"] if x["mechanism"] == hidden), "") if hidden else ""
     path = [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in s.items()} for s in doc["selection_path"]]
+    below = [s["parent_loglik"] - c["loglik"] for s in doc["selection_path"][1:] for c in s["candidates"]]
+    nested = sum(x["reason"].startswith("nested") for x in doc["rejected"])
     return {"st_top1": found[0] if found else "none", "st_found": found, "st_verdict": doc["verdict"],
-            "st_seconds": seconds, "st_why_not_hidden": why, "st_path": path}
+            "st_seconds": seconds, "st_why_not_hidden": why, "st_path": path,
+            "st_below": max([0.0, *below]), "st_nested": nested}
 
 
 def report(rows: list[dict]) -> str:
@@ -56,6 +63,8 @@ def report(rows: list[dict]) -> str:
            f"{sum(r['st_top1'] == 'none' for r in hidden)}/{len(hidden)} |",
            f"| null cases with a finding | {sum(r['findings'] > 0 for r in nulls)}/{len(nulls)} | "
            f"{sum(bool(r['st_found']) for r in nulls)}/{len(nulls)} |",
+           f"| stochastic: cases with a candidate fit > {BELOW_TOL} below its parent (log-likelihood) | | "
+           f"{sum(r.get('st_below', 0.0) > BELOW_TOL for r in rows)}/{sum('st_below' in r for r in rows)} |",
            f"| run time per case, median / max (s, loaded machine) | {statistics.median(oe_s):.0f} / "
            f"{max(oe_s):.0f} | {statistics.median(st_s):.0f} / {max(st_s):.0f} |", "",
            "| case | hidden | output error: top-1 | findings | stochastic: top-1 | findings | stochastic: why the "

@@ -99,6 +99,7 @@ def test_a_candidate_fit_never_ends_below_the_model_it_extends():
     doc = machine.select_mechanisms(rec, only=["bearing_heat_law", "speed_dependent_convection"], max_rounds=1)
     base = doc["baseline"]["loglik"]
     cands = doc["selection_path"][1]["candidates"]
+    assert doc["selection_path"][1]["parent_loglik"] == base
     assert {c["mechanism"] for c in cands} == {"bearing_heat_law", "speed_dependent_convection"}
     for c in cands:
         assert c["off_loglik"] == pytest.approx(base, abs=0.05), c

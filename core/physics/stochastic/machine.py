@@ -178,8 +178,8 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
     would not is named as one its parameters cannot switch off. The accepted one is then refitted with every
     parameter free, and the next round starts from it. A mechanism's parameters are named ``<mechanism>.<name>``
     in the model (two mechanisms may both declare ``G_W_K``). Returns the report (JSON-ready): ``baseline``,
-    ``selection_path`` (per step its ``candidates``: mechanism, place, loglik and ``off_loglik``, the likelihood
-    where it is switched off), ``findings`` (mechanism, place, parameters, lr, df, p_value), ``rejected``
+    ``selection_path`` (per step ``parent_loglik`` and its ``candidates``: mechanism, place, loglik and
+    ``off_loglik``, the likelihood where it is switched off), ``findings`` (mechanism, place, parameters, lr, df, p_value), ``rejected``
     (mechanism, reason) and ``verdict``."""
     from scipy.stats import chi2
 
@@ -235,7 +235,8 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
         lr = max(2.0 * (e2.loglik - current.loglik), 0.0)
         p = float(chi2.sf(lr, df))
         level = alpha / len(fitted)
-        step = {"name": mid, "place": options, "loglik": e2.loglik, "n_params": current.n_params + df, "lr": lr,
+        step = {"name": mid, "place": options, "loglik": e2.loglik, "parent_loglik": current.loglik,
+                "n_params": current.n_params + df, "lr": lr,
                 "df": df, "p_value": p, "level": level, "accepted": p < level,
                 "candidates": [{"mechanism": c[0], "place": c[1], "loglik": c[4].loglik, "off_loglik": c[5]}
                                for c in fitted]}
