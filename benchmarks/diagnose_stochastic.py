@@ -20,8 +20,9 @@ def run_stochastic(table: Path, manifest: Path, hidden: str | None, seed: int) -
     """The stochastic mode on one written recording; ``hidden``: the planted mechanism (None on a null).
     Returns ``st_top1`` (the first finding or "none"), ``st_found``, ``st_verdict``, ``st_seconds`` (s, wall),
     ``st_why_not_hidden`` (the report's reason for the hidden mechanism), ``st_path`` (the selection path),
-    ``st_below`` (how far the worst candidate fit ended below the model it extends, log-likelihood; 0 if none did)
-    and ``st_nested`` (candidates reported nested)."""
+    ``st_below`` (how far the worst candidate fit ended below the model it extends, log-likelihood; 0 if none did;
+    of the candidates that reach their parent where switched off: the others, e.g. the slow structural mode whose
+    conductance is fixed, cannot) and ``st_nested`` (mechanisms reported nested)."""
     from thermodrift.core.physics.stochastic.machine import select_mechanisms
     from thermodrift.core.recording import load_recording
 
@@ -32,7 +33,8 @@ def run_stochastic(table: Path, manifest: Path, hidden: str | None, seed: int) -
     found = [f["mechanism"] for f in doc["findings"]]
     why = next((x["reason"] for x in doc["rejected"] if x["mechanism"] == hidden), "") if hidden else ""
     path = [{k: (round(v, 4) if isinstance(v, float) else v) for k, v in s.items()} for s in doc["selection_path"]]
-    below = [s["parent_loglik"] - c["loglik"] for s in doc["selection_path"][1:] for c in s["candidates"]]
+    cands = [(s["parent_loglik"], c) for s in doc["selection_path"][1:] for c in s["candidates"]]
+    below = [p - c["loglik"] for p, c in cands if c["off_loglik"] >= p - BELOW_TOL]  # those it can switch off
     nested = sum(x["reason"].startswith("nested") for x in doc["rejected"])
     return {"st_top1": found[0] if found else "none", "st_found": found, "st_verdict": doc["verdict"],
             "st_seconds": seconds, "st_why_not_hidden": why, "st_path": path,
