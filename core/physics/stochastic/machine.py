@@ -241,7 +241,10 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
                 "candidates": [{"mechanism": c[0], "place": c[1], "loglik": c[4].loglik, "off_loglik": c[5]}
                                for c in fitted]}
         path.append(step)
-        for other, _o, _n, _m, e, off_ll in sorted(fitted, key=lambda c: -c[4].loglik):
+        # worst first: of a mechanism's places the best one's reason stands
+        for other, _o, _n, _m, e, off_ll in sorted(fitted, key=lambda c: c[4].loglik):
+            if other == mid and e is not e2:
+                continue
             gain = e.loglik - current.loglik
             if gain < -NESTED_GAIN and off_ll < current.loglik - NESTED_GAIN:
                 why = (f"cannot be switched off by its parameters: ends {-gain:.1f} below the model it extends "
@@ -250,7 +253,7 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
                 why = f"nested: its best fit is the model it extends (log-likelihood {gain:+.2f})"
             else:
                 why = f"explains less than {mid} (likelihood)"
-            if other != mid or gain < NESTED_GAIN:
+            if other != mid or not why.startswith("explains"):
                 rejected[other] = why
         if p >= level:
             if not rejected.get(mid, "").startswith(("nested", "cannot")):
