@@ -30,10 +30,12 @@ Run::
     python benchmarks/bench_greybox.py                     # 1 case per simulator, under 10 min on 2 cores
     python benchmarks/bench_greybox.py --cases 24          # every structure once per simulator
     python benchmarks/bench_greybox.py --sealed --cases 24 # the sealed half, once
-    python benchmarks/bench_greybox.py --houses --cases 0  # the three real houses only (--houses 2: house 2)
+    python benchmarks/bench_greybox.py --houses --cases 0 --workers 2  # the three real houses only, as diagnose
     python benchmarks/bench_greybox.py --pick 1 5 9        # only those cases of the list (0-based)
 
-``--json FILE`` writes every case. Times are wall times on a shared machine: noisy.
+``--json FILE`` writes every case. ``--workers N`` fits a round's candidates in N processes (``diagnose`` uses
+min(2, cores); the result does not depend on it). Per selection it reports the wall time (a shared machine:
+noisy), the CPU time of this process and its workers, and the filter passes (a gradient pass counts one).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import sys
 import time
 from pathlib import Path
@@ -99,17 +102,26 @@ def engine_recording(house: house_sde.House, df: pd.DataFrame, seed: int) -> pd.
     return out
 
 
-def score_case(house: house_sde.House, df: pd.DataFrame, seed: int) -> dict:
+def cpu_seconds() -> float:
+    """CPU time of this process and of its finished children (the selection's worker processes), s."""
+    return sum(r.ru_utime + r.ru_stime for r in (resource.getrusage(resource.RUSAGE_SELF),
+                                                  resource.getrusage(resource.RUSAGE_CHILDREN)))
+
+
+def score_case(house: house_sde.House, df: pd.DataFrame, seed: int, workers: int = 1) -> dict:
     """Forward selection on one recording, scored against the truth."""
     base = sto.load("building_ti")
-    sel = forward_select(base, series(base, df), seed=seed)
+    cpu = cpu_seconds()
+    sel = forward_select(base, series(base, df), seed=seed, workers=workers)
+    cpu = cpu_seconds() - cpu
     est = sel.selected.estimate
     found = sto.structure_name(est.model)
     got_htc, htc_ci = est.derived(lambda v: sto.htc(est.model, v))
     row = {"structure": house.structure, "selected": found, "recovered": found == house.structure,
            "path": [s.name for s in sel.path], "htc_true": house.htc, "htc": got_htc,
            "htc_ci": list(htc_ci) if htc_ci else None, "htc_rel_err": abs(got_htc / house.htc - 1.0),
-           "seconds": round(sel.seconds, 1), "covered": {}, "unidentifiable": sorted(est.unidentifiable)}
+           "seconds": round(sel.seconds, 1), "cpu_seconds": round(cpu, 1), "filter_passes": sel.n_evals,
+           "loglik": est.loglik, "covered": {}, "unidentifiable": sorted(est.unidentifiable)}
     if row["recovered"]:
         true = truth(house)
         for name, (lo, hi) in est.intervals.items():
@@ -118,20 +130,21 @@ def score_case(house: house_sde.House, df: pd.DataFrame, seed: int) -> dict:
     return row
 
 
-def simulation(cases: int, sealed: bool, sims: list[str], log, pick: list[int] | None = None, base: int = 0
-               ) -> list[dict]:
+def simulation(cases: int, sealed: bool, sims: list[str], log, pick: list[int] | None = None, base: int = 0,
+               workers: int = 1) -> list[dict]:
     rows = []
     listed = house_sde.case_list(sealed, max([cases, *(i + 1 for i in pick or ())]), base)
     for seed, structure in ([listed[i] for i in pick] if pick else listed):
         house, df = house_sde.make_case(seed, structure)
         for sim in sims:
             rec = df if sim == "independent" else engine_recording(house, df, seed)
-            row = {"sim": sim, "seed": seed, **score_case(house, rec, seed)}
+            row = {"sim": sim, "seed": seed, **score_case(house, rec, seed, workers)}
             rows.append(row)
             cov = row["covered"]
             log(f"{sim:11s} seed {seed:5d} {structure:16s} -> {row['selected']:16s} "
                 f"HTC err {100 * row['htc_rel_err']:5.1f} %  covered {sum(cov.values())}/{len(cov)}  "
-                f"{row['seconds']:.0f} s  ({' > '.join(row['path'])})")
+                f"loglik {row['loglik']:.1f}  {row['seconds']:.0f} s wall, {row['cpu_seconds']:.0f} s CPU, "
+                f"{row['filter_passes']} passes  ({' > '.join(row['path'])})")
     return rows
 
 
@@ -156,17 +169,21 @@ def read_house(path: Path) -> pd.DataFrame:
     return df[["t", "Ta", "Ps", "Thm", "yTi"]]
 
 
-def real_house(path: Path, seed: int, log) -> dict:
+def real_house(path: Path, seed: int, log, workers: int = 1) -> dict:
     """Forward selection on all but the last 14 days; 24 h-ahead RMSE (K) of the selected and the one-state model
     on those days."""
     df = read_house(path)
     cut = len(df) - HOLDOUT_DAYS * K_DAY
     base = sto.load("building_ti")
     full = series(base, df)
-    sel = forward_select(base, full.rows(0, cut), seed=seed)
+    cpu = cpu_seconds()
+    sel = forward_select(base, full.rows(0, cut), seed=seed, workers=workers)
+    cpu = cpu_seconds() - cpu
     y = full.y[cut:, 0]
     out = {"house": path.stem, "rows": len(df), "fit_rows": cut, "selected": sel.selected.name,
-           "path": [s.record() | {"candidates": None} for s in sel.path], "seconds": round(sel.seconds, 1)}
+           "loglik": sel.selected.estimate.loglik,
+           "path": [s.record() | {"candidates": None} for s in sel.path], "seconds": round(sel.seconds, 1),
+           "cpu_seconds": round(cpu, 1), "filter_passes": sel.n_evals, "workers": workers}
     for label, est in (("selected", sel.selected.estimate), ("ti", sel.path[0].estimate)):
         f = est.filtered(full)
         pred = sto.k_step(est.system, full, f, K_DAY)[cut:, 0]
@@ -174,7 +191,9 @@ def real_house(path: Path, seed: int, log) -> dict:
         out[f"rmse24_{label}"] = rmse(pred, y)
         out[f"rmse1_{label}"] = rmse(one, y)
     log(f"{path.stem}: {' -> '.join(s.name for s in sel.path)}  selected {out['selected']}  24 h RMSE "
-        f"{out['rmse24_selected']:.3f} K vs Ti {out['rmse24_ti']:.3f} K  ({out['seconds']:.0f} s)")
+        f"{out['rmse24_selected']:.3f} K vs Ti {out['rmse24_ti']:.3f} K  loglik {out['loglik']:.1f}  "
+        f"({out['seconds']:.0f} s wall, {out['cpu_seconds']:.0f} s CPU, {workers} workers, "
+        f"{out['filter_passes']} filter passes)")
     return out
 
 
@@ -190,6 +209,8 @@ def main(argv=None) -> int:
     ap.add_argument("--buildings", type=Path,
                     default=Path(os.environ.get("THERMODRIFT_BUILDINGS", "../shared/data/buildings")))
     ap.add_argument("--json", type=Path, help="write every case here")
+    ap.add_argument("--workers", type=int, default=1,
+                    help="processes fitting a round's candidates (diagnose uses the cores, at most 2)")
     args = ap.parse_args(argv)
     clock = time.perf_counter()
     result: dict = {"sealed": args.sealed}
@@ -198,7 +219,7 @@ def main(argv=None) -> int:
         print(line, flush=True)
 
     if args.cases or args.pick:
-        rows = simulation(args.cases, args.sealed, args.sims, log, args.pick, args.base)
+        rows = simulation(args.cases, args.sealed, args.sims, log, args.pick, args.base, args.workers)
         result["cases"], result["summary"] = rows, summary(rows)
         print(f"\n{'half':9s} {'simulator':12s} {'cases':>5s} {'recovered':>9s} {'CI cover':>13s} "
               f"{'(identif.)':>13s} {'HTC ±10%':>8s}")
@@ -209,7 +230,7 @@ def main(argv=None) -> int:
                   f"{100 * s['htc_within_10pct']:7.0f}%")
         print("targets: recovered >= 90 %, 95 % intervals cover 90-98 %, HTC within 10 % on >= 90 %")
     if args.houses is not None:
-        houses = [real_house(args.buildings / f"blg_{k}.csv", 0, log) for k in (args.houses or (1, 2, 3))]
+        houses = [real_house(args.buildings / f"blg_{k}.csv", 0, log, args.workers) for k in (args.houses or (1, 2, 3))]
         result["houses"] = houses
         print(f"\n{'house':7s} {'selected':16s} {'24 h RMSE sel':>13s} {'24 h RMSE Ti':>12s} {'ratio':>6s} "
               f"{'1-step sel':>10s} {'1-step Ti':>9s}")

@@ -60,6 +60,7 @@ class Selection:
     selected: Step
     alpha: float
     seconds: float
+    n_evals: int = 0  # filter passes of every fit (each gradient evaluation counts one), the intervals' included
 
 
 def ti_start(net: RCNetwork, data: Series) -> RCNetwork:
@@ -151,11 +152,13 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
     if progress:
         progress(f"{current.name}: loglik {est.loglik:.1f}")
     path = [current]
+    n_evals = est.n_evals
     while True:
         scale = htc(current.estimate.model, current.estimate.values) / DEFAULT_HTC
         base = current.estimate.model.with_values(current.estimate.values)
         jobs = [extension_starts(current.estimate, m().apply(base), scale, origin) for m in mechs if m.places(base)]
         tried = _fit_all(jobs, data, seed, starts, workers)
+        n_evals += sum(e.n_evals for e in tried)
         if progress:
             for e in tried:
                 progress(f"  {structure_name(e.model)}: loglik {e.loglik:.1f} ({e.n_evals} filter passes, "
@@ -175,5 +178,7 @@ def forward_select(net: RCNetwork, data: Series, *, registry=None, seed: int = 0
         current = step
     from thermodrift.core.physics.stochastic.fit import add_information
 
+    before = current.estimate.n_evals
     add_information(current.estimate)
-    return Selection(path, current, alpha, time.perf_counter() - clock)
+    n_evals += current.estimate.n_evals - before
+    return Selection(path, current, alpha, time.perf_counter() - clock, n_evals)
