@@ -31,7 +31,7 @@ from scipy.signal import lfilter
 
 from thermodrift.compensator.physics import kalman_update, steady_filter
 from thermodrift.core.physics.integrate import propagate
-from thermodrift.core.physics.stochastic.kalman import LOG_2PI, initial_state
+from thermodrift.core.physics.stochastic.kalman import gaussian_loglik, initial_state
 from thermodrift.core.physics.stochastic.sde import Series, System
 
 STEP = 1e-5  # central-difference step on the search scale η for the system matrices and the initial state
@@ -237,13 +237,7 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
                 T2 = dK @ (Sj @ K.T)
                 dP = dPss - T2 - _T(T2) - K @ dSj @ K.T
                 P = Pss - K @ Sj @ K.T
-    if p == 1:
-        s = S[:, 0, 0]
-        loglik = -0.5 * float(np.sum(LOG_2PI + np.log(s) + e[:, 0] ** 2 / s))
-    else:
-        sign, logdet = np.linalg.slogdet(S)
-        quad = np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
-        loglik = -0.5 * float(np.sum(p * LOG_2PI + logdet + quad))
+    loglik = gaussian_loglik(e, S)
     if not np.isfinite(loglik):
         return -np.inf, np.zeros(k)
     return loglik, grad

@@ -107,6 +107,13 @@ def run(system: System, data: Series, *, p0: float = 1.0, init_rows: int = 96, t
                 S[j:b + 1] = C @ Pss @ C.T + R
                 x = xf[b]
                 P = Pss - K @ (C @ Pss @ C.T + R) @ K.T
+    return Filtered(e, S, xp, xf, gaussian_loglik(e, S))
+
+
+def gaussian_loglik(e: np.ndarray, S: np.ndarray) -> float:
+    """Σ_k −½ (p log 2π + log det S_k + e_kᵀ S_k⁻¹ e_k) over innovations ``e`` (rows × p) with covariances ``S``
+    (rows × p × p); −inf where it is not finite."""
+    p = e.shape[1]
     if p == 1:
         s = S[:, 0, 0]
         loglik = -0.5 * float(np.sum(LOG_2PI + np.log(s) + e[:, 0] ** 2 / s))
@@ -114,9 +121,7 @@ def run(system: System, data: Series, *, p0: float = 1.0, init_rows: int = 96, t
         sign, logdet = np.linalg.slogdet(S)
         quad = np.einsum("ki,ki->k", e, np.linalg.solve(S, e[..., None])[..., 0])
         loglik = -0.5 * float(np.sum(p * LOG_2PI + logdet + quad))
-    if not np.isfinite(loglik):
-        loglik = -np.inf
-    return Filtered(e, S, xp, xf, loglik)
+    return loglik if np.isfinite(loglik) else -np.inf
 
 
 def k_step(system: System, data: Series, filtered: Filtered, k: int) -> np.ndarray:
