@@ -35,6 +35,7 @@ Z95 = float(norm.ppf(0.975))
 ETA_LIMIT = 25.0          # log scale: e^±25, the box where a positive parameter has no finite bound
 SE_UNIDENTIFIABLE = 3.0   # η standard error above which a parameter is named unidentifiable
 EIG_UNIDENTIFIABLE = 1e-8
+HAC_SHARE = 10             # :func:`misfit_scale`'s Bartlett bandwidth: the rows over this (a fixed share, "fixed-b")
 
 
 @dataclass(frozen=True)
@@ -294,6 +295,38 @@ def add_information(est: Estimate, h: float = 2e-3) -> None:
                 se[i]) else (p.low, p.high)
             est.intervals[p.name] = (float(lo), float(hi))
     est.unidentifiable = why
+
+
+def misfit_scale(est: Estimate) -> float:
+    """How far the scores' long-run variance J exceeds the observed information H: tr(H⁻¹J)/k over the parameters
+    not on a bound (H from :func:`add_information`, computed here when missing; J from the filter's scores,
+    :func:`.gradient.scores`, with the Bartlett kernel over a tenth of the rows). About 1 where the model fits; a
+    structurally wrong model leaves innovations correlated over hours, and J exceeds H. A likelihood-ratio
+    statistic divided by it is the robust one (White's quasi-likelihood, in the mean scaling of Satorra and
+    Bentler). Never below 1: a test it corrects only becomes more cautious. By hand: none of the project's
+    libraries takes a long-run variance of given scores (statsmodels would, for this one sum)."""
+    from thermodrift.core.physics.stochastic import gradient
+
+    params, data = est.model.parameters, est.data
+    if est.cov_eta is None:
+        add_information(est)
+    keep = [i for i, p in enumerate(params) if not p.at_bound(est.eta[i])]
+    if not keep or est.cov_eta is None:
+        return 1.0
+    lo, hi = np.array([p.eta_bounds for p in params]).T
+    with one_thread(), np.errstate(all="ignore"):
+        d = gradient.derivatives(lambda e: est.model.system(_values(params, e)), est.eta, lo, hi, data,
+                                 est.options.get("init_rows", 96))
+        s = gradient.scores(est.system, d, data, **est.options)[:, keep]
+    est.n_evals += 1 + 2 * len(params)
+    s = s - s.mean(axis=0)
+    J = s.T @ s
+    lags = max(1, len(s) // HAC_SHARE)
+    for lag in range(1, lags + 1):
+        x = s[lag:].T @ s[:-lag]
+        J += (1.0 - lag / (lags + 1)) * (x + x.T)
+    c = float(np.trace(est.cov_eta[np.ix_(keep, keep)] @ J)) / len(keep)
+    return max(c, 1.0) if math.isfinite(c) else math.inf
 
 
 def _hessian(f: Callable[[np.ndarray], float], eta: np.ndarray, h: float) -> np.ndarray:

@@ -14,7 +14,8 @@ The system's matrices and the initial state as functions of the parameters come 
 :class:`~.fit.Model`): their derivatives are central differences of ``model.system`` and of
 :func:`.kalman.initial_state` (cheap: no filter; rational functions of the parameters, so the error is about
 1e-10 relative); everything downstream is analytic. The function value is the one :func:`.kalman.run` returns
-(the same operations in the same order).
+(the same operations in the same order). :func:`scores` gives the same gradient row by row (the stationary rows
+that end the series then run forward, not by the adjoint).
 
 Why by hand: torch's autograd would differentiate the matrix exponential, but neither the Riccati solution nor the
 thousands of stationary rows (a sequential recursion, run in C by ``lfilter`` here) fit its graph at a useful cost.
@@ -136,9 +137,19 @@ def _stationary_adjoint(Phi, F, K, C, A_, xf, xp, u, y, dx, dPhi, dGam, dF, dG, 
     return g
 
 
-def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_rows: int = 96, tol: float = 1e-9,
-        transient: int = 200) -> tuple[float, np.ndarray]:
+def run(system: System, d: Derivatives, data: Series, **options) -> tuple[float, np.ndarray]:
     """(log-likelihood, its gradient along the k parameters of ``d``) of :func:`.kalman.run` over ``data``."""
+    loglik, grad, _ = _pass(system, d, data, per_row=False, **options)
+    return loglik, grad
+
+
+def scores(system: System, d: Derivatives, data: Series, **options) -> np.ndarray:
+    """Each row's term of the gradient (rows × k), the scores; they sum to :func:`run`'s gradient."""
+    return _pass(system, d, data, per_row=True, **options)[2]
+
+
+def _pass(system: System, d: Derivatives, data: Series, *, per_row: bool, p0: float = 1.0, init_rows: int = 96,
+          tol: float = 1e-9, transient: int = 200) -> tuple[float, np.ndarray, np.ndarray | None]:
     C, D, R = system.C, system.D, system.R
     N, n, p = len(data), system.n_states, len(C)
     k = len(d.x0)
@@ -149,6 +160,7 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
     e = np.empty((N, p))
     S = np.empty((N, p, p))
     grad = np.zeros(k)
+    per = np.zeros((N, k)) if per_row else None  # the scores, row by row
 
     read_fixed = not d.C.any()  # the read-out does not move with the parameters (every RC network): fewer terms
 
@@ -180,6 +192,8 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
     dP = np.zeros((k, n, n))
     x, dx, P, dP, g = update(x, dx, P, dP, 0)
     grad += g
+    if per_row:
+        per[0] = g
     if N > 1:
         levels, dts = data.steps()
         change = np.flatnonzero((levels[1:] != levels[:-1]) | (dts[1:] != dts[:-1])) + 1
@@ -204,6 +218,8 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
                 done = np.abs(P - Pss).max() <= tol * np.abs(Pss).max()
                 x, dx, P, dP, g = update(x, dx, P, dP, j)
                 grad += g
+                if per_row:
+                    per[j] = g
                 j += 1
                 if done:
                     break
@@ -222,7 +238,10 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
                 A_ = e[j:b + 1] @ Sinv                 # rows × p: a_r = S⁻¹ e_r (S symmetric)
                 rows = b + 1 - j
                 grad += -0.5 * rows * np.einsum("ij,kji->k", Sinv, dSj) + 0.5 * np.einsum("ij,kij->k", A_.T @ A_, dSj)
-                if b == N - 1:  # the last rows: −Σ a_rᵀ de_r by the adjoint recursion (no state derivative needed after)
+                if per_row:
+                    per[j:b + 1] = (-0.5 * np.einsum("ij,kji->k", Sinv, dSj)
+                                    + 0.5 * np.einsum("ri,kij,rj->rk", A_, dSj, A_))
+                if b == N - 1 and not per_row:  # the last rows: −Σ a_rᵀ de_r by the adjoint recursion (no state derivative needed after)
                     grad += _stationary_adjoint(Phi, F, K, C, A_, xf, xp, u[j - 1:b + 1], y[j:b + 1], dx, dPhi, dGam,
                                                 dF, dG, dK, d.C, d.D)
                     continue
@@ -233,11 +252,13 @@ def run(system: System, d: Derivatives, data: Series, *, p0: float = 1.0, init_r
                 dxp = xf[:-1] @ _T(dPhi) + dxf[:, :-1] @ Phi.T + u[j - 1:b] @ _T(dGam)
                 de = dy[:, j:b + 1] - xp @ _T(d.C) - dxp @ C.T
                 grad -= np.einsum("rp,krp->k", A_, de)
+                if per_row:
+                    per[j:b + 1] -= np.einsum("rp,krp->rk", A_, de)
                 x, dx = xf[-1], dxf[:, -1]
                 T2 = dK @ (Sj @ K.T)
                 dP = dPss - T2 - _T(T2) - K @ dSj @ K.T
                 P = Pss - K @ Sj @ K.T
     loglik = gaussian_loglik(e, S)
     if not np.isfinite(loglik):
-        return -np.inf, np.zeros(k)
-    return loglik, grad
+        return -np.inf, np.zeros(k), per
+    return loglik, grad, per

@@ -25,7 +25,7 @@ import numpy as np
 
 from thermodrift.core.physics.calibration.free import FreeParameter
 from thermodrift.core.physics.integrate import CompiledNetwork
-from thermodrift.core.physics.network import Network
+from thermodrift.core.physics.network import BOUNDARIES, Network
 from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.physics.stochastic.fit import Param
 from thermodrift.core.physics.stochastic.sde import Series, System
@@ -33,6 +33,7 @@ from thermodrift.core.physics.stochastic.sde import Series, System
 HOUR_S = 3600.0
 LAG_SCALE = 0.01  # K per unit of a lag state (see the module docstring)
 SPEED_STEP_RPM = 10.0
+SIGNALS_FROM = 1 + len(BOUNDARIES)  # the inputs' first signal-source column (after 1, ambient, coolant)
 
 
 class NetworkModel:
@@ -61,6 +62,9 @@ class NetworkModel:
         if not self.channels:
             raise ValueError("no temperature sensor or displacement sensor of the network is in the recording")
         u = np.column_stack([comp.inputs(scen), (speed / network.reference_speed_rpm) ** 2])
+        f = scen.frame
+        self._signals = {c: f[c].to_numpy() for c in ("cutting_power_W", "axis_velocity_mm_min")}
+        self._signal_at = u[:, SIGNALS_FROM:comp.n_inputs]  # the signal sources' power (W) at the network's own values
         y = recording.data[self.channels].to_numpy(dtype=float)
         self.data = Series.of(scen.time_s / HOUR_S, u, y, level)
         start = dict(start or {})
@@ -90,6 +94,7 @@ class NetworkModel:
         mats = [comp.matrices(float(s)) for s in self.levels]
         A = np.stack([a for a, _ in mats]) * HOUR_S
         B = np.stack([np.column_stack([b, np.zeros(len(b))]) for _, b in mats]) * HOUR_S
+        B[:, :, SIGNALS_FROM:comp.n_inputs] *= self._signal_scales(comp)
         n, m = A.shape[1], B.shape[2]
         lags = [s for s in net.temperature_sensors if s.name in self.channels and s.lag_s > 0]
         if lags:  # one lag state per lagged sensor (see the module docstring)
@@ -121,6 +126,19 @@ class NetworkModel:
         sigma = np.array([values[f"sigma.{name}"] for name in comp.names] + [0.0] * len(lags))
         r = np.array([values[f"r.{c}"] for c in self.channels])
         return System(A, B, np.array(rows), D, sigma, r)
+
+    def _signal_scales(self, comp: CompiledNetwork) -> np.ndarray:
+        """Each signal source's power at these values over its input column (computed once, at the network's own
+        values): a source's parameter (a cutting fraction, a drive's power) scales its input, and the inputs of
+        the series stay fixed. The least-squares scale, exact for the built-in sources (linear in their
+        parameters)."""
+        out = np.ones(len(comp.signal_sources))
+        for i, src in enumerate(comp.signal_sources):
+            ref = self._signal_at[:, i]
+            energy = float(ref @ ref)
+            if energy > 0:
+                out[i] = float(np.asarray(src.signal_power(self._signals), dtype=float) @ ref) / energy
+        return out
 
 
 OFF_REACH = 1e-3   # how much lower a positive parameter's low bound goes in a candidate fit (:func:`reaching_off`)
@@ -172,10 +190,13 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
     refined as a stochastic model (one multiplier per calibrated parameter, σ per node, r per channel); each round
     every registered machine mechanism at each of its places (two at most) is fitted with its own parameters
     free and the rest held at the current estimates, from the mechanism's defaults and from where it is switched
-    off (:func:`nested_start`; the better end kept), and the best by likelihood is accepted when its LR test
-    passes at ``alpha`` / (candidates fitted) (Bonferroni). A candidate gaining less than ``NESTED_GAIN`` is
-    *nested* (its best fit is the model it extends); one that ends below its parent although switched off it
-    would not is named as one its parameters cannot switch off. The accepted one is then refitted with every
+    off (:func:`nested_start`; the better end kept). Only a candidate that reaches its parent where switched off
+    (within ``NESTED_GAIN``) is nested in it and can be tested: the others are named as ones their parameters cannot
+    switch off (the χ² law of the likelihood ratio does not hold for them). The best testable one by likelihood
+    is accepted when its LR test passes at ``alpha`` / (testable candidates) (Bonferroni), the LR statistic
+    divided by the baseline's misfit (:func:`.fit.misfit_scale`: innovations correlated over hours, as a
+    structurally wrong baseline leaves them, count as fewer independent samples). A candidate gaining less than
+    ``NESTED_GAIN`` is *nested* (its best fit is the model it extends). The accepted one is then refitted with every
     parameter free, and the next round starts from it. A mechanism's parameters are named ``<mechanism>.<name>``
     in the model (two mechanisms may both declare ``G_W_K``). Returns the report (JSON-ready): ``baseline``,
     ``selection_path`` (per step ``parent_loglik`` and its ``candidates``: mechanism, place, loglik and
@@ -186,7 +207,7 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
     from thermodrift.core.errors import InputError
     from thermodrift.core.physics import calibration as cal
     from thermodrift.core.physics.stochastic.building import BuildingMechanism
-    from thermodrift.core.physics.stochastic.fit import fit, loglik
+    from thermodrift.core.physics.stochastic.fit import fit, loglik, misfit_scale
 
     if registry is None:
         from thermodrift.core import registry as registry_module
@@ -230,34 +251,37 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
                 say(f"  {mid} {options or ''}: loglik {e2.loglik:.1f} (switched off {off_ll:.1f})")
         if not fitted:
             break
-        mid, options, new, m2, e2, _ = max(fitted, key=lambda c: c[4].loglik)
+        parent = current.loglik
+        testable = [c for c in fitted if abs(c[5] - parent) <= NESTED_GAIN]  # reaches its parent switched off
+        for other, _o, _n, _m, e, off_ll in sorted(fitted, key=lambda c: c[4].loglik):  # worst first: a
+            gain = e.loglik - parent                                                  # mechanism's best place last
+            if abs(off_ll - parent) > NESTED_GAIN:
+                rejected[other] = (f"cannot be switched off by its parameters (switched off as far as they allow: "
+                                   f"{off_ll - parent:+.1f} against the model it extends; fitted {gain:+.1f}): not "
+                                   f"nested, so no likelihood-ratio test")
+            elif gain < NESTED_GAIN:
+                rejected[other] = f"nested: its best fit is the model it extends (log-likelihood {gain:+.2f})"
+        if not testable:
+            break
+        mid, options, new, m2, e2, _ = max(testable, key=lambda c: c[4].loglik)
         df = len(new)
-        lr = max(2.0 * (e2.loglik - current.loglik), 0.0)
-        p = float(chi2.sf(lr, df))
-        level = alpha / len(fitted)
-        step = {"name": mid, "place": options, "loglik": e2.loglik, "parent_loglik": current.loglik,
-                "n_params": current.n_params + df, "lr": lr,
+        lr = max(2.0 * (e2.loglik - parent), 0.0)
+        scale = misfit_scale(e2) if lr > 0 else 1.0
+        p = float(chi2.sf(lr / scale, df))
+        level = alpha / len(testable)
+        step = {"name": mid, "place": options, "loglik": e2.loglik, "parent_loglik": parent,
+                "n_params": current.n_params + df, "lr": lr, "misfit_scale": scale, "lr_robust": lr / scale,
                 "df": df, "p_value": p, "level": level, "accepted": p < level,
                 "candidates": [{"mechanism": c[0], "place": c[1], "loglik": c[4].loglik, "off_loglik": c[5]}
                                for c in fitted]}
         path.append(step)
-        # worst first: of a mechanism's places the best one's reason stands
-        for other, _o, _n, _m, e, off_ll in sorted(fitted, key=lambda c: c[4].loglik):
-            if other == mid and e is not e2:
-                continue
-            gain = e.loglik - current.loglik
-            if gain < -NESTED_GAIN and off_ll < current.loglik - NESTED_GAIN:
-                why = (f"cannot be switched off by its parameters: ends {-gain:.1f} below the model it extends "
-                       f"(switched off as far as they allow: {off_ll - current.loglik:+.1f})")
-            elif gain < NESTED_GAIN:
-                why = f"nested: its best fit is the model it extends (log-likelihood {gain:+.2f})"
-            else:
-                why = f"explains less than {mid} (likelihood)"
-            if other != mid or not why.startswith("explains"):
-                rejected[other] = why
+        for other, _o, _n, _m, e, off_ll in testable:
+            if other != mid and e.loglik - parent >= NESTED_GAIN:
+                rejected[other] = f"explains less than {mid} (likelihood)"
         if p >= level:
-            if not rejected.get(mid, "").startswith(("nested", "cannot")):
-                rejected[mid] = f"not significant: LR {lr:.1f} on {df} parameter(s), p = {p:.3g} ≥ {level:.3g}"
+            if not rejected.get(mid, "").startswith("nested"):
+                rejected[mid] = (f"not significant: LR {lr:.1f} on {df} parameter(s), {lr / scale:.1f} after the "
+                                 f"baseline's misfit (× 1/{scale:.2g}), p = {p:.3g} ≥ {level:.3g}")
             break
         rejected.pop(mid, None)
         m2 = NetworkModel(m2.network, recording, free=[*free, *new], factors=factors,
