@@ -28,6 +28,10 @@ class ThermalTilt(Mechanism):
     parameters = (Parameter("um_K", 3.0, -20.0, 20.0, "um/K", 0.0, "displacement per K of hot–cold difference"),)
     options = {"hot": None, "cold": None, "axes": ("x", "y")}
     signature = "X/Y channels follow a temperature difference, not a mean"
+    # against a simulation: the spindle's heat bending the structure, on an X/Y drift the simulation does not move
+    # with that heat (lags of r^1.5; either sign)
+    simulation_form = {"driver": "bending", "taus_s": (1800.0, 7200.0, 28800.0), "reaches": ("displacement",),
+                       "axes": ("x", "y")}
 
     def _apply(self, network, p, o):
         hot = target_nodes(network, self.id, o["hot"], HOT_GROUPS)[0]

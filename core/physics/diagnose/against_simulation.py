@@ -8,7 +8,7 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  recording's temperature and displacement channels it gives
     noise        per channel from the second differences of measured minus simulated (robust scale)
     null         the calibration null per channel (:func:`.sim_forms.null_design`): offset, simulated excess and
-                 its lags, lagged speed heat, and the simulation's own response to every recorded input it
+                 its lags, lagged speed heat where the simulation is heated, and the simulation's own response to every recorded input it
                  responds to with a lag of it, so a driver the simulation has with a wrong gain or time
                  constant is absorbed, not named. Fitted on the rows before the final block, with a small ridge
                  on its columns (:data:`NULL_RIDGE`): the calibrated simulation, the ``baseline`` of the report
@@ -28,13 +28,11 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  (:data:`SIZE_MIN`); the temperature channels it reaches besides may not lose more than
                  :data:`GUARD`. One judged on the drift comes first. A rival judged alike (passing or not) with
                  :data:`RIVAL` of the best median gain (for one judged on the temperatures, any judged on the
-                 drift too) makes it
-                 "cannot tell" (precision first: no name) unless the best beats it fold by fold (a larger
-                 share on :data:`BEATS` of the folds) or is decisive against it: fitted together, the best
-                 removes
-                 :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival removes of what
-                 the best leaves. A best driven by a recorded input must also beat that input shifted in time
-                 (:func:`_shifted`)
+                 drift too) makes it "cannot tell" (precision first: no name) unless the best beats it fold by
+                 fold (a larger share on :data:`BEATS` of the folds) or is decisive against it: fitted together,
+                 the best removes :data:`EXTRA_MIN` of what the rival leaves held out, and twice what the rival
+                 removes of what the best leaves. A best driven by a recorded input must also beat that input
+                 shifted in time (:func:`_shifted`)
     model        the winner fitted on the rows before the final block: simulation + null + its correction, its
                  gains per channel and its lag with finite intervals, the windows where it acts, and the
                  held-out fit before and after (``report.json`` keeps its shape)
@@ -130,6 +128,7 @@ class Problem:
     nulls: list[np.ndarray]             # null design per channel
     simulated: list[str]                # recorded inputs the simulation responds to
     detected: bool                      # read from its traces (True) or said by the user
+    heated: np.ndarray                  # per channel: the simulation moves it with the spindle's heat
     cache: dict = field(default_factory=dict)  # designs by (channel, form, lag)
 
     @property
@@ -174,6 +173,7 @@ def prepare(recording, simulation, simulated_inputs: list[str] | None = None) ->
     temps = [j for j, k in enumerate(kinds) if k == "temperature"]
     amb = inputs.inputs.get("ambient", np.zeros(len(t)))
     amb_excess = (excess[:, temps].mean(axis=1) - amb) if temps else excess[:, 0] / max(np.ptp(excess[:, 0]), 1e-9)
+    heated = sim_forms.responses(inputs, excess, sigma).get("speed", np.zeros(len(channels), dtype=bool))
     if simulated_inputs is None:
         simulated, detected = sim_forms.detect_inputs(inputs, excess, sigma), True
     else:
@@ -182,9 +182,9 @@ def prepare(recording, simulation, simulated_inputs: list[str] | None = None) ->
             raise InputError(f"unknown simulated input {unknown[0]!r}",
                              hint=f"use roles among {', '.join(sim_forms.INPUT_ROLES)}")
         simulated, detected = [r for r in simulated_inputs if r in inputs.inputs], False
-    nulls = [sim_forms.null_design(inputs, excess[:, j], simulated) for j in range(len(channels))]
+    nulls = [sim_forms.null_design(inputs, excess[:, j], simulated, bool(heated[j])) for j in range(len(channels))]
     return Problem(recording, channels, kinds, measured, sim, sigma, fit_rows, _folds(recording, fit_rows), inputs,
-                   excess, amb_excess, nulls, simulated, detected)
+                   excess, amb_excess, nulls, simulated, detected, heated)
 
 
 def _solve(X: np.ndarray, y: np.ndarray, rows: np.ndarray, sign: int = 0, first: int = 0) -> np.ndarray:
@@ -228,12 +228,16 @@ def _make_design(p: Problem, j: int, form: dict | None, tau: float) -> tuple[np.
     return np.column_stack([Z, *cols]), y, Z.shape[1]
 
 
-def _reached(p: Problem, form: dict) -> list[int]:
+def _reached(p: Problem, form: dict, heat: bool = True) -> list[int]:
+    """The channels a form acts on; with ``heat`` as :func:`.sim_forms.heat_nested` says."""
     kinds = form.get("reaches", ("temperature", "displacement"))
     axes = form.get("axes")
     out = []
     for j, (c, k) in enumerate(zip(p.channels, p.kinds)):
         if k not in kinds:
+            continue
+        if heat and (form["driver"] in sim_forms.HEAT_DRIVERS and not p.heated[j]
+                     or form["driver"] == "bending" and p.heated[j]):
             continue
         if k == "displacement" and axes:
             axis = p.recording.channels[c].meta.get("axis")
@@ -305,17 +309,17 @@ def assess_form(p: Problem, mechanism: str, form: dict, null_sse: np.ndarray) ->
             fitted[:, j] = p.measured[:, j] - y + pred
             if tau > 0:
                 params[f"lag_s[{p.channels[j]}]"] = tau
-                ci[f"lag_s[{p.channels[j]}]"] = list(_grid_interval(taus, tau))
+                ci[f"lag_s[{p.channels[j]}]"] = list(sim_forms.grid_interval(taus, tau))
             continue
         corr[:, j] = X[:, first:] @ beta[first:]
         fitted[:, j] = p.sim[:, j] + pred
         for k in range(first, X.shape[1]):
             name = f"gain{'' if X.shape[1] - first == 1 else k - first}[{p.channels[j]}]"
             params[name] = float(beta[k])
-            ci[name] = list(_gain_interval(X, p.measured[:, j] - p.sim[:, j] - pred, beta, k, p.fit_rows))
+            ci[name] = list(sim_forms.gain_interval(X, p.measured[:, j] - p.sim[:, j] - pred, beta, k, p.fit_rows))
     if not lagged:
         params["tau_s"] = tau_all
-        ci["tau_s"] = list(_grid_interval(taus, tau_all))
+        ci["tau_s"] = list(sim_forms.grid_interval(taus, tau_all))
     rows = p.fit_rows
     size = max((float(np.ptp(corr[rows, j])) / p.sigma[j] for j in judged), default=0.0)
     return Tested(mechanism, form, judged, fold_gain, share, size, guard, tau_all, corr, fitted, params, ci,
@@ -340,28 +344,6 @@ def _shared_lag(p: Problem, form: dict, reached: list[int], taus) -> np.ndarray:
             _, beta, X, y, _, _ = _fit_channel(p, j, form, (tau,), train)
             sse[f, j] = np.sum((y[test] - X[test] @ beta) ** 2) / p.sigma[j] ** 2
     return sse
-
-
-def _grid_interval(taus, tau: float) -> tuple[float, float]:
-    """The lag's interval: from the lag tried below it to the one above (finite, containing the value)."""
-    grid = sorted(taus)
-    i = grid.index(tau)
-    lo = grid[i - 1] if i > 0 else tau / 2
-    hi = grid[i + 1] if i + 1 < len(grid) else tau * 2
-    return float(lo), float(hi)
-
-
-def _gain_interval(X: np.ndarray, resid: np.ndarray, beta: np.ndarray, k: int, rows: np.ndarray):
-    """95 % interval of coefficient ``k``: least-squares standard error, inflated for the residual's lag-1
-    correlation (effective sample count n (1 − ρ) / (1 + ρ))."""
-    r = resid[rows]
-    rho = float(np.clip(np.dot(r[1:], r[:-1]) / max(np.dot(r, r), 1e-300), 0.0, 0.99))
-    Xr = X[rows]
-    scale = np.maximum(np.abs(Xr).max(axis=0), 1e-12)
-    XtX = (Xr / scale).T @ (Xr / scale)
-    var = float(np.linalg.pinv(XtX)[k, k]) / scale[k] ** 2 * float(np.mean(r ** 2)) * (1 + rho) / (1 - rho)
-    half = 1.96 * np.sqrt(max(var, 0.0))
-    return float(beta[k] - half), float(beta[k] + half)
 
 
 def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | None = None, registry=None,
@@ -394,6 +376,9 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
                 "told from that path with a wrong gain or lag")})
             continue
         if why is None and not _reached(p, form):
+            if _reached(p, form, heat=False):
+                status.append({"mechanism": mid, "status": "nested", "reason": sim_forms.heat_nested(form)})
+                continue
             why = "none of the channels it reaches is in the simulation"
         if why:
             status.append({"mechanism": mid, "status": "untestable", "reason": f"untestable: {why}"})

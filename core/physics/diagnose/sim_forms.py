@@ -29,6 +29,10 @@ speed_convection    −r^0.8 · (simulated excess over the air): cooling that gr
                     temperature channel's (the rotating spindle, cooled most) and the mean's (the surfaces)
 heat_feedback       r^1.5 · lag(r^1.5, 15 min): heat that grows with the heat already put in
 slow_heat           lag(r^1.5, 1 h): heat through a further, slow store (the form's lags act on it)
+bending             r^1.5 and its 4 h lag (the form's lags act on both; their difference is the band-pass of a
+                    gradient across the structure, the far side catching up): a drift the spindle's heat drives through a temperature
+                    difference across the structure, on a drift channel the simulation does not move with that
+                    heat (a path the simulation lacks, not an error of one it has)
 sensor_lag          a fixed form, not a regressor: each temperature channel read through a first-order lag
                     of the simulation plus its correction (the form's lags are the lags tried per channel)
 =================== ======================================================================================
@@ -37,7 +41,11 @@ The calibration null (:func:`null_design`) is what imperfect parameters of the s
 an offset, the simulated excess and two lags of it (gain and time-constant errors), lagged speed heat, and
 lags of every recorded input the simulation responds to (as the user says, or :func:`detect_inputs`): that
 input's path with a wrong gain or time constant. A mechanism driven by such an input is nested in the null:
-it cannot be told from that path's error, and the finder says so instead of naming it.
+it cannot be told from that path's error, and the finder says so instead of naming it. The speed-heat lags
+stand only on the channels the simulation moves with the spindle's heat (:func:`responses`): an error in a
+heat path's gain or lag scales or delays a response the simulation has, it does not create one. So the
+mechanisms that change the spindle's heat paths (``HEAT_DRIVERS``) reach only those channels, and ``bending``
+only the others.
 """
 
 from __future__ import annotations
@@ -49,9 +57,10 @@ import numpy as np
 from thermodrift.core.physics.sensors import first_order_lag
 
 INPUT_ROLES = ("ambient", "coolant_inlet", "cutting_power", "axis_velocity")
-DRIVERS = (*INPUT_ROLES, "speed_power", "speed_squared", "speed_convection", "heat_feedback", "slow_heat",
-           "sensor_lag")
+HEAT_DRIVERS = ("speed_power", "speed_convection", "heat_feedback", "slow_heat")  # change the spindle's heat paths
+DRIVERS = (*INPUT_ROLES, *HEAT_DRIVERS, "speed_squared", "bending", "sensor_lag")
 HEAT_EXPONENT = 1.5
+BENDING_FAR_S = 14400.0                     # the far side of a bent structure follows its near side by this (s)
 NULL_SIM_TAUS = (900.0, 3600.0)             # lags of the simulated excess in the null (s)
 NULL_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)   # lags of speed heat in the null (s)
 ID_TAUS = (300.0, 1800.0, 7200.0, 28800.0)  # lags an input's response is identified with (s)
@@ -133,18 +142,16 @@ def drivers(form: dict, inputs: Inputs, sim_excess: np.ndarray, amb_excess: np.n
         return [h * inputs.lag(h, 900.0)]
     if d == "slow_heat":
         return [inputs.lag(inputs.heat(), 3600.0)]
+    if d == "bending":  # the difference across the structure rises with the heat, then the far side follows
+        return [inputs.heat(), inputs.lag(inputs.heat(), BENDING_FAR_S)]
     raise ValueError(d)
 
 
-def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> list[str]:
-    """The recorded inputs the simulation responds to, read from its traces when the user does not say:
-    per channel the simulated excess regressed on lagged powers of speed and lagged inputs; an input counts
-    when leaving its lags out raises the regression's RMS error (in quadrature) by :data:`RESPONDS` of the
-    channel's simulated range and half its noise on any channel. Inputs that move with the speed (cutting
-    while running) can be counted when they do not drive the simulation: the mechanisms they drive are then
-    reported nested, never named wrongly."""
-    if not inputs.inputs:
-        return []
+def responses(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> dict[str, np.ndarray]:
+    """Which drivers the simulation responds to, per channel (role or ``speed`` → bool per channel): the
+    simulated excess regressed on lagged powers of speed and lagged inputs; a driver counts on a channel when
+    leaving its lags out raises the regression's RMS error (in quadrature) by :data:`RESPONDS` of the channel's
+    simulated range and half its noise (speed: by half its noise)."""
     cols, owner = [np.ones_like(inputs.r)], ["offset"]
     for power in (1.0, HEAT_EXPONENT, 2.0):
         for tau in ID_HEAT_TAUS:
@@ -158,7 +165,8 @@ def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -
     Xs = X / np.maximum(np.abs(X).max(axis=0), 1e-12)
     G = Xs.T @ Xs
     every = list(range(X.shape[1]))
-    found = set()
+    drivers = ["speed", *inputs.inputs]
+    out = {d: np.zeros(excess.shape[1], dtype=bool) for d in drivers}
     for j in range(excess.shape[1]):
         y = excess[:, j]
         b, yy = Xs.T @ y, float(y @ y)
@@ -168,11 +176,23 @@ def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -
             return float(np.sqrt(max(yy - beta @ b[keep], 0.0) / len(y)))
 
         full = rms_left(every)
-        for role in inputs.inputs:
-            without = rms_left([i for i in every if owner[i] != role])
-            if np.sqrt(max(without ** 2 - full ** 2, 0.0)) > max(RESPONDS * float(np.ptp(y)), 0.5 * spans_sigma[j]):
-                found.add(role)
-    return [r for r in INPUT_ROLES if r in found]
+        for d in drivers:
+            without = rms_left([i for i in every if owner[i] != d])
+            # the spindle's heat counts wherever the noise would not hide it: a heat path with a wrong gain
+            # moves a channel the simulation moves at all
+            floor = 0.0 if d == "speed" else RESPONDS * float(np.ptp(y))
+            out[d][j] = np.sqrt(max(without ** 2 - full ** 2, 0.0)) > max(floor, 0.5 * spans_sigma[j])
+    return out
+
+
+def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> list[str]:
+    """The recorded inputs the simulation responds to on any channel (:func:`responses`), read from its traces
+    when the user does not say. Inputs that move with the speed (cutting while running) can be counted when they
+    do not drive the simulation: the mechanisms they drive are then reported nested, never named wrongly."""
+    if not inputs.inputs:
+        return []
+    found = responses(inputs, excess, spans_sigma)
+    return [r for r in INPUT_ROLES if r in found and found[r].any()]
 
 
 def ridge_solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -185,12 +205,24 @@ def ridge_solve(G: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.solve(G + lam * np.eye(k), b)
 
 
-def null_design(inputs: Inputs, sim_excess: np.ndarray, simulated: list[str]) -> np.ndarray:
-    """The calibration null's columns for one channel (see the module docstring)."""
+def heat_nested(form: dict) -> str:
+    """Why a form reaches no channel the heat rule leaves it (a heat-path form reaches only the channels the
+    simulation moves with the spindle's heat, a bending form only the others): the report's reason."""
+    return "nested in the calibrated simulation: " + (
+        "every channel it reaches already moves with the spindle's heat there, and a bending term cannot be told "
+        "from that path with a wrong gain or lag" if form["driver"] == "bending" else
+        "the simulation does not move the channels it reaches with the spindle's heat, and a change of a heat "
+        "path cannot create that response")
+
+
+def null_design(inputs: Inputs, sim_excess: np.ndarray, simulated: list[str], heated: bool = True) -> np.ndarray:
+    """The calibration null's columns for one channel (see the module docstring); ``heated``: the simulation
+    moves this channel with the spindle's heat (:func:`responses`), so its heat paths' errors reach it."""
     cols = [np.ones_like(sim_excess), sim_excess]
     cols += [inputs.lag(sim_excess, tau) for tau in NULL_SIM_TAUS]
-    h = inputs.heat()
-    cols += [inputs.lag(h, tau) for tau in NULL_HEAT_TAUS]
+    if heated:
+        h = inputs.heat()
+        cols += [inputs.lag(h, tau) for tau in NULL_HEAT_TAUS]
     for role in simulated:
         cols += [inputs.lag(inputs.inputs[role], tau) for tau in NULL_INPUT_TAUS]
     return np.column_stack(cols)
@@ -217,3 +249,25 @@ def surfaces(inputs: Inputs, excess: np.ndarray, kinds: list[str], j: int, amb_e
         return [excess[:, j] - air]
     hot = hottest(excess, kinds)
     return [amb_excess] if hot is None else [excess[:, hot] - air, amb_excess]
+
+
+def grid_interval(taus, tau: float) -> tuple[float, float]:
+    """The lag's interval: from the lag tried below it to the one above (finite, containing the value)."""
+    grid = sorted(taus)
+    i = grid.index(tau)
+    lo = grid[i - 1] if i > 0 else tau / 2
+    hi = grid[i + 1] if i + 1 < len(grid) else tau * 2
+    return float(lo), float(hi)
+
+
+def gain_interval(X: np.ndarray, resid: np.ndarray, beta: np.ndarray, k: int, rows: np.ndarray):
+    """95 % interval of coefficient ``k``: least-squares standard error, inflated for the residual's lag-1
+    correlation (effective sample count n (1 − ρ) / (1 + ρ))."""
+    r = resid[rows]
+    rho = float(np.clip(np.dot(r[1:], r[:-1]) / max(np.dot(r, r), 1e-300), 0.0, 0.99))
+    Xr = X[rows]
+    scale = np.maximum(np.abs(Xr).max(axis=0), 1e-12)
+    XtX = (Xr / scale).T @ (Xr / scale)
+    var = float(np.linalg.pinv(XtX)[k, k]) / scale[k] ** 2 * float(np.mean(r ** 2)) * (1 + rho) / (1 - rho)
+    half = 1.96 * np.sqrt(max(var, 0.0))
+    return float(beta[k] - half), float(beta[k] + half)
