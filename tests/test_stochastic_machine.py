@@ -106,3 +106,13 @@ def test_a_candidate_fit_never_ends_below_the_model_it_extends():
         assert c["loglik"] >= base - 0.05, c
     reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
     assert reasons["speed_dependent_convection"].startswith("nested")
+
+
+def test_a_growth_at_once_is_not_tested_where_samples_are_slower_than_the_spindles_heating():
+    """Samples 120 s apart: a step within one of them cannot be told from the nose's fast heating, so the
+    centrifugal growth is skipped with the reason, not fitted."""
+    _, rec = _recording()
+    doc = machine.select_mechanisms(rec, only=["centrifugal_growth"], max_rounds=1)
+    reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
+    assert reasons["centrifugal_growth"].startswith("skipped: samples 120 s apart")
+    assert len(doc["selection_path"]) == 1 and not doc["findings"]

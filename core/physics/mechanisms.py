@@ -84,6 +84,9 @@ class Mechanism:
     experiment: ClassVar[str] = ""
     shapes: ClassVar[tuple[dict[str, float], ...]] = ()
     signed: ClassVar[bool] = False
+    # ``at_once``: it acts with no thermal lag (a step within a sample of its driver's change); a record sampled
+    # slower than the spindle's fastest heating cannot tell it from that heating (``diagnose --stochastic``).
+    at_once: ClassVar[bool] = False
 
     def __init__(self, **options: Any):
         unknown = set(options) - set(self.options)

@@ -22,6 +22,7 @@ class CentrifugalGrowth(Mechanism):
     summary = "the spindle nose grows under centrifugal force (and bearing contact change) at once"
     experiment = "short speed steps (minutes) that leave no time to warm"
     signed = True  # a negative fitted amplitude is still physical
+    at_once = True  # no thermal lag: complete within one sample of a speed change
     parameters = (Parameter("um_at_ref", 1.0, -LIMIT_UM, LIMIT_UM, "um", 0.0, "growth at the reference speed"),)
     options = {"axes": ("z",)}
     drivers = ("speed",)

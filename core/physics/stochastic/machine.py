@@ -143,6 +143,8 @@ class NetworkModel:
 
 OFF_REACH = 1e-3   # how much lower a positive parameter's low bound goes in a candidate fit (:func:`reaching_off`)
 NESTED_GAIN = 0.5  # log-likelihood units: a candidate gaining less than this over its parent is nested (LR < 1)
+FAST_HEATING_S = 60.0  # the spindle nose heats over minutes: a mechanism acting at once (``at_once``) is told from
+                       # that heating only when samples come at least this often (s)
 
 
 def nested_start(mechanism, before: Network, new: Sequence[FreeParameter]) -> dict[str, float]:
@@ -196,7 +198,8 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
     is accepted when its LR test passes at ``alpha`` / (testable candidates) (Bonferroni), the LR statistic
     divided by the baseline's misfit (:func:`.fit.misfit_scale`: innovations correlated over hours, as a
     structurally wrong baseline leaves them, count as fewer independent samples). A candidate gaining less than
-    ``NESTED_GAIN`` is *nested* (its best fit is the model it extends). The accepted one is then refitted with every
+    ``NESTED_GAIN`` is *nested* (its best fit is the model it extends). A mechanism acting at once (``at_once``:
+    the centrifugal growth) is skipped on a record sampled slower than ``FAST_HEATING_S``. The accepted one is then refitted with every
     parameter free, and the next round starts from it. A mechanism's parameters are named ``<mechanism>.<name>``
     in the model (two mechanisms may both declare ``G_W_K``). Returns the report (JSON-ready): ``baseline``,
     ``selection_path`` (per step ``parent_loglik`` and its ``candidates``: mechanism, place, loglik and
@@ -214,6 +217,7 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
 
         registry = registry_module.default()
     say = progress or (lambda line: None)
+    step_s = float(np.median(np.diff(recording.time_s))) if len(recording) > 1 else 0.0
     oe = cal.calibrate(recording, None, hidden_nodes=hidden_nodes, starts=1, seed=seed)
     factors = {e.name: tuple(e.paths) for e in oe.estimates}
     model = NetworkModel(oe.network, recording, factors=factors)
@@ -229,6 +233,9 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
             if issubclass(cls, BuildingMechanism) or any(f["mechanism"] == mid for f in findings):
                 continue
             why = cls.missing_drivers(recording)
+            if not why and cls.at_once and step_s > FAST_HEATING_S:
+                why = (f"samples {step_s:.0f} s apart: a step within one sample of a speed change cannot be told "
+                       f"from the spindle nose's fast heating (minutes); record at {FAST_HEATING_S:.0f} s or faster")
             places = [] if why else cls.places(net)
             if why or not places:
                 rejected[mid] = f"skipped: {why}" if why else (cls.unplaced(net) or "skipped: no place in the network")
