@@ -116,3 +116,14 @@ def test_a_growth_at_once_is_not_tested_where_samples_are_slower_than_the_spindl
     reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
     assert reasons["centrifugal_growth"].startswith("skipped: samples 120 s apart")
     assert len(doc["selection_path"]) == 1 and not doc["findings"]
+
+
+def test_a_candidate_its_parameters_cannot_switch_off_is_not_tested_by_likelihood_ratio():
+    """The slow structural mode's conductance into its new node is fixed: switched off as far as its parameters
+    allow, it still loads the network, so it is not nested in its parent and the χ² law of the likelihood ratio
+    does not hold; it is named so and never accepted."""
+    _, rec = _recording()
+    doc = machine.select_mechanisms(rec, only=["slow_structural_mode"], max_rounds=1)
+    reasons = {r["mechanism"]: r["reason"] for r in doc["rejected"]}
+    assert "not nested, so no likelihood-ratio test" in reasons["slow_structural_mode"]
+    assert len(doc["selection_path"]) == 1 and not doc["findings"]
