@@ -88,9 +88,26 @@ def test_the_left_out_cutting_heat_is_named_and_the_cli_writes_the_report(cuttin
     status = {m["mechanism"]: m["status"] for m in doc["adequacy"]["mechanisms"]}
     assert status["ambient_coupling"] == "nested" and status["coolant_coupling"] == "nested"
     assert status["radiation"] == "untestable" and status["cutting_heat"] == "tested"
+    # the slow store's lagged speed heat lies within the null's 3 h and 10 h speed-heat lags: nested, not tested
+    assert status["slow_structural_mode"] == "nested"
+    slow = next(m for m in doc["adequacy"]["mechanisms"] if m["mechanism"] == "slow_structural_mode")
+    assert "null's columns" in slow["reason"]
     assert set(status) == set(registry.default().names("mechanism"))
     for name in ("report.md", "residuals.csv", "fit.png"):
         assert (out / name).stat().st_size > 0
+
+
+def test_a_form_the_null_takes_whole_is_told_from_one_it_does_not():
+    from thermodrift.core.physics.diagnose import sim_forms
+    t = np.linspace(0.0, 30 * 3600.0, 901)
+    r = (np.sin(t / 7000.0) > 0).astype(float)
+    inputs = sim_forms.Inputs(t, r, {})
+    null = sim_forms.null_design(inputs, inputs.lag(r, 2000.0), [])
+    rows = np.ones(len(t), dtype=bool)
+    inside = 2.0 * inputs.lag(r ** 1.5, 3600.0) - inputs.lag(r ** 1.5, 900.0)
+    assert sim_forms.outside(np.column_stack([null, inside]), null.shape[1], rows) < 1e-6
+    square = np.sin(t / 5000.0) ** 2  # no lag of the speed's heat
+    assert sim_forms.outside(np.column_stack([null, square]), null.shape[1], rows) > 10 * sim_forms.IN_NULL
 
 
 def test_a_null_case_names_nothing():

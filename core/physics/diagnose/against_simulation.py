@@ -16,7 +16,8 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  each of its lags, a gain per channel it reaches, its sign on temperature channels; sensor lag
                  as a fixed form (each temperature channel reads the simulation plus its correction through a
                  first-order lag, never free derivative terms). A mechanism declaring none, or whose driver the
-                 recording lacks, is listed as untestable with the reason
+                 recording lacks, is untestable; one whose lagged driver the null's columns take whole
+                 (:data:`.sim_forms.IN_NULL`) nested: the report says so with the reason
     decide       on held-out folds: the final block and :data:`FOLDS` contiguous groups of condition blocks
                  before it, each predicted by the null and by null + mechanism fitted without it (the lag chosen
                  on the training rows). Judged on the drift channels when the form reaches them, else on the
@@ -383,6 +384,12 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
         if why:
             status.append({"mechanism": mid, "status": "untestable", "reason": f"untestable: {why}"})
             continue
+        if (left := _outside_null(p, form)) < sim_forms.IN_NULL:
+            status.append({"mechanism": mid, "status": "nested", "reason": (
+                "nested in the calibrated simulation's null: the null's columns (the simulated excess and speed heat "
+                f"lagged up to 10 h) take its lagged driver whole ({left:.1%} left at most), so no held-out test "
+                "can tell it from a parameter error of the simulation")})
+            continue
         tested.append(assess_form(p, mid, form, null_sse))
     for t in tested:
         t.passed = t.consistent and t.size >= SIZE_MIN and t.guard >= -GUARD
@@ -427,6 +434,14 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
     return Diagnosis(p.channels, p.kinds, recording.time_s, p.measured, base_fit, augmented, p.fit_rows, findings,
                      rejected, driver_windows(recording), net, net, len(tested), time.perf_counter() - clock,
                      recording.speed.to_numpy(dtype=float), [], adequacy)
+
+
+def _outside_null(p: Problem, form: dict) -> float:
+    """The largest share of the form's lagged driver, over its lags and the channels it reaches, that the null
+    leaves unexplained on the fitted rows (:func:`.sim_forms.outside`; sensor lag, a fixed form: 1)."""
+    designs = [] if form["driver"] == "sensor_lag" else [
+        _design(p, j, form, tau) for j in _reached(p, form) for tau in form.get("taus_s", (3600.0,))]
+    return max((sim_forms.outside(X, first, p.fit_rows) for X, _, first in designs), default=1.0)
 
 
 def _pair_sse(p: Problem, parts: list[Tested], judged: list[int]) -> float:

@@ -66,6 +66,9 @@ NULL_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)   # lags of speed heat
 ID_TAUS = (300.0, 1800.0, 7200.0, 28800.0)  # lags an input's response is identified with (s)
 NULL_INPUT_TAUS = (1800.0, 7200.0, 28800.0)  # lags of each input the simulation responds to, in the null (s)
 ID_HEAT_TAUS = (300.0, 900.0, 3600.0, 10800.0, 36000.0)
+IN_NULL = 0.01      # a form whose every lagged column, on every channel it reaches, leaves less than this share of
+                    # its size outside the null's columns is nested in the null (:func:`outside`): the null takes
+                    # it whole, so no held-out test can tell it from a parameter error of the simulation
 RESPONDS = 0.01     # an input counts as driving the simulation when its lags explain 1 % of the channel's
                     # simulated range and half the channel's noise beyond what speed explains
 
@@ -213,6 +216,16 @@ def heat_nested(form: dict) -> str:
         "from that path with a wrong gain or lag" if form["driver"] == "bending" else
         "the simulation does not move the channels it reaches with the spindle's heat, and a change of a heat "
         "path cannot create that response")
+
+
+def outside(X: np.ndarray, first: int, rows: np.ndarray) -> float:
+    """The share of a form's columns (``X[:, first:]``, centred) that the null's columns (``X[:, :first]``)
+    leave unexplained on ``rows`` (least squares, columns scaled to unit peak): below :data:`IN_NULL` the form
+    is nested in the null."""
+    Z, C = X[rows, :first], X[rows, first:]
+    Z = Z / np.maximum(np.abs(Z).max(axis=0), 1e-12)
+    left = C - Z @ np.linalg.lstsq(Z, C, rcond=None)[0]
+    return float(np.sqrt((left ** 2).sum() / max(((C - C.mean(axis=0)) ** 2).sum(), 1e-300)))
 
 
 def null_design(inputs: Inputs, sim_excess: np.ndarray, simulated: list[str], heated: bool = True) -> np.ndarray:
