@@ -50,6 +50,8 @@ class Evaluator:
         inputs = input_columns(recording, INPUT_ROLES, self.targets)
         self.X = model_inputs(recording, inputs, cls, self.targets)
         self.y = recording.data[self.targets]
+        # outer training rows with every target measured: all of them unless the drift is measured now and then
+        self.labelled = int(np.isfinite(self.y.iloc[self.outer_train].to_numpy(dtype=float)).all(axis=1).sum())
         self.truth = [self.y.iloc[f.test] for f in self.folds]
         self.unit = target_unit(recording, self.targets)  # of every RMSE here: µm or K
         self.roles = {ch.role for ch in recording.channels.values()}  # what families may require (speed, ...)

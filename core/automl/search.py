@@ -37,6 +37,10 @@ from thermodrift.core.automl.folds import aggregate
 
 PHASE_ATTR = "automl.phase"
 PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is within this factor of the best
+# The final choice leaves out a candidate with more than this many fitted parameters per labelled training row:
+# a drift measured every 2 h over a day gives a dozen readings, on which a network of hundreds to thousands of
+# weights scores on inner folds of 5-9 readings by chance, not by what it learnt.
+MAX_PARAMETERS_PER_LABELLED_ROW = 10
 
 
 @dataclass
@@ -318,6 +322,7 @@ class Search:
     def _eligible(self, ok: list[Entry]) -> list[Entry]:
         """The candidates the final choice (best pipeline and ensemble pool) draws from: every a-priori one
         (portfolio, promoted) and the TPE ones that earn their place against the best a-priori candidate."""
+        ok = self._identifiable(ok)
         prior = [e for e in ok if e.phase != "tpe" and self._full(e)]
         if not prior:
             return ok
@@ -326,6 +331,19 @@ class Search:
             self.say(f"automl: {len(ok) - len(keep)} TPE candidate(s) left out of the final choice: tuned on the "
                      f"folds that score them, they do not beat trial {ref.number} ({space.describe(ref.candidate.params)}"
                      f") by more than one standard error across the folds")
+        return keep
+
+    def _identifiable(self, ok: list[Entry]) -> list[Entry]:
+        """``ok`` without the candidates whose fitted parameters exceed :data:`MAX_PARAMETERS_PER_LABELLED_ROW` per
+        labelled training row (said in one line; all of ``ok`` when that would leave none)."""
+        cap = MAX_PARAMETERS_PER_LABELLED_ROW * self.ev.labelled
+        keep = [e for e in ok if not e.evaluation.costs.get("n_parameters", 0) > cap]
+        if not keep or len(keep) == len(ok):
+            return ok
+        names = sorted({e.candidate.family for e in ok if e not in keep})
+        self.say(f"automl: {len(ok) - len(keep)} candidate(s) ({', '.join(names)}) left out of the final choice: more "
+                 f"than {MAX_PARAMETERS_PER_LABELLED_ROW} fitted parameters per labelled training row "
+                 f"({self.ev.labelled} rows with the target measured)")
         return keep
 
     def _predictions(self, e: Entry) -> list[np.ndarray]:
