@@ -7,7 +7,9 @@ the more trials TPE compares): it enters the final choice only when it beats the
 than one standard error of their per-fold differences (:func:`earns_its_place`; with one fold, never). The final
 choice is the average of the candidates the folds cannot tell from the best by that same rule, each weighted by
 the inverse of its mean squared fold RMSE (:meth:`Search._hedge`, :func:`inverse_mse_weights`) when there are two
-or more, else the greedy ensemble when it wins, else the best pipeline.
+or more, else the greedy ensemble when it wins, else the best pipeline. A candidate with more fitted parameters
+than :data:`MAX_PARAMETERS_PER_LABELLED_ROW` per labelled training row (a drift measured now and then) takes no
+part in the final choice (:meth:`Search._identifiable`).
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
