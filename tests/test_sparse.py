@@ -108,3 +108,35 @@ def test_the_final_choice_leaves_out_a_candidate_with_more_parameters_than_the_r
     assert "(bp) left out of the final choice" in said[0] and f"({labelled} rows with the target measured)" in said[0]
     dense_labelled, kept, said = eligible(tiny_recording(), n_parameters)  # every row measured: kept
     assert dense_labelled > labelled and kept == [0, 1] and not said
+
+
+def test_a_sparse_target_caps_parameters_by_its_measurements_and_is_not_tuned():
+    rec = tiny_recording(seed=0)
+    data = rec.data.copy()
+    off = np.arange(len(data)) % 40 != 0  # 7 measured training rows: fewer than mlr's 12 weights on 2 targets
+    data.loc[off, rec.columns("displacement")] = np.nan
+    rec = Recording(data, rec.channels)
+    spec = JobSpec(dataset="tiny", model="mlr", split="condition_holdout", seed=0, storage=None, progress=False)
+    lines = []
+    result = automl_job.run(spec, Settings(budget_fits=12, families=["mlr", "transfer_function"]), recording=rec,
+                            say=lines.append)
+    assert "automl: mlr · all · raw left out: 12 parameters, more than the 7 measured rows of the training part" \
+        in lines[0] and sum("left out:" in line for line in lines) == 1  # one line for the family
+    assert any("no TPE tuning" in line for line in lines)
+    board = result.leaderboard
+    assert board.loc[board["model"] == "mlr", "error"].str.startswith("left out: ").all()
+    assert board.loc[board["model"] == "transfer_function", "status"].eq("ok").all()
+    assert "tpe" not in set(board["phase"]) and result.search.fits == len(result.search.folds)  # left out: unscored
+
+
+def test_a_dense_target_is_neither_capped_nor_left_untuned():
+    from thermodrift.core.automl.evaluate import Evaluator
+    from thermodrift.core.automl.folds import inner_folds
+
+    rec = tiny_recording(seed=0)
+    data = rec.data.copy()
+    data.loc[data.index[::3], rec.columns("displacement")] = np.nan  # dropouts, not a drift measured now and then
+    rec = Recording(data, rec.channels)
+    train = np.arange(200)
+    ev = Evaluator(rec, train, rec.columns("displacement"), inner_folds(rec, train))
+    assert ev.max_parameters is None

@@ -6,6 +6,14 @@ With ``n_jobs`` > 1 the fold fits run in worker processes (forked from this one,
 the registry and its plugins without pickling them); :meth:`Evaluator.evaluate_many` runs the folds of several
 candidates at once. Every fit is a pure function of its candidate, fold and seed, so the scores do not depend on
 ``n_jobs`` (only the measured times do).
+
+A sparse target (a drift measured now and then: measured on fewer than half of the training rows) caps a
+candidate's parameters by its measurements: each probe reading is one equation, so a pipeline whose fitted model has
+more trainable parameters than the outer training part has measured rows (the rows its refit will learn from) is
+underdetermined there, and its inner scores, on folds of a handful of readings, cannot show it; it is left out
+(:class:`Underdetermined`, raised after its first fold's fit, :func:`free_parameters`). A densely measured target is not capped: its rows are
+a time series sampled far faster than its dynamics, not independent equations, and its networks are fitted by early
+stopping on them.
 """
 
 from __future__ import annotations
@@ -23,6 +31,21 @@ from thermodrift.core import efficiency, registry
 from thermodrift.core.automl.folds import aggregate
 from thermodrift.core.metrics import evaluate
 from thermodrift.core.study import INPUT_ROLES, input_columns, model_inputs, predict_rows, seeded_model, target_unit
+
+
+SPARSE_SHARE = 0.5  # a target measured on fewer than this share of the training rows is sparse (see above)
+
+
+class Underdetermined(ValueError):
+    """A candidate with more trainable parameters than the measured rows of a sparse target's training part."""
+
+
+def free_parameters(model) -> int:
+    """A fitted model's trainable parameters (:func:`.efficiency.parameter_count`); where it does not
+    expose them (0), one per input column its inner model reads plus an offset, the least a regression on them has."""
+    count = efficiency.parameter_count(model)
+    columns = getattr(model, "inner_columns_", None)
+    return count if count or not columns else len(columns) + 1
 
 
 @dataclass
@@ -55,6 +78,8 @@ class Evaluator:
         self.truth = [self.y.iloc[f.test] for f in self.folds]
         self.unit = target_unit(recording, self.targets)  # of every RMSE here: µm or K
         self.roles = {ch.role for ch in recording.channels.values()}  # what families may require (speed, ...)
+        # the parameter cap of a sparse target (module docstring); None: dense, no cap
+        self.max_parameters = self.labelled if self.labelled < SPARSE_SHARE * len(self.outer_train) else None
 
     def pipeline(self, params: dict):
         return seeded_model("pipeline", params, self.seed)
@@ -91,6 +116,9 @@ class Evaluator:
             started = time.perf_counter()
             model = self.pipeline(params).fit(self.X.iloc[fold.train], self.y.iloc[fold.train])
             fit_s = time.perf_counter() - started
+            if self.max_parameters is not None and k == 0 and free_parameters(model) > self.max_parameters:
+                raise Underdetermined(f"{free_parameters(model)} parameters, more than the {self.max_parameters} "
+                                      "measured rows of the training part")
             pred = predict_rows(model, self.X, fold.test, allowed=self.outer_train)
             if not np.isfinite(pred).all():
                 raise ValueError("non-finite predictions on an inner fold")

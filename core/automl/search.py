@@ -34,7 +34,7 @@ import optuna
 from thermodrift.core import resume
 from thermodrift.core.automl import space
 from thermodrift.core.automl.ensemble import caruana, out_of_fold
-from thermodrift.core.automl.evaluate import Evaluation, Evaluator
+from thermodrift.core.automl.evaluate import Evaluation, Evaluator, Underdetermined
 from thermodrift.core.automl.folds import aggregate
 
 PHASE_ATTR = "automl.phase"
@@ -116,6 +116,7 @@ class Search:
         self.n_folds = len(evaluator.folds)
         self.memory: dict[int, Evaluation] = {}  # this process's evaluations (with predictions) by trial number
         self.failed_families: set[str] = set()
+        self.underdetermined: set[str] = set()  # families named once as having a candidate left out for it
         self.started = time.perf_counter()
         self.stopped_by = "budget"
         self.bar = None
@@ -181,7 +182,12 @@ class Search:
     def _tpe(self) -> None:
         """TPE over the settings of the best cheap families: a medium or expensive family's fit costs minutes, so
         it takes part untuned (and, for a network, through successive halving), which keeps the default budget
-        within its time."""
+        within its time. A sparse target (:mod:`.evaluate`) is not tuned: its inner folds hold a handful of
+        measured rows, on which tuned settings fit the noise of those very rows, so the a-priori candidates decide."""
+        if self.ev.max_parameters is not None:
+            self.say(f"automl: no TPE tuning: the target is measured on {self.ev.max_parameters} training rows only "
+                     "(a-priori candidates only)")
+            return
         ranked = [f for f in self._family_ranking() if self.families[f].cost == "cheap"]
         chosen = [f for f in ranked if f not in self.failed_families][:self.settings.tpe_families]
         if not chosen:
@@ -262,7 +268,18 @@ class Search:
 
     def _tell(self, trial: optuna.Trial, cand: space.Candidate, ev: Evaluation | Exception) -> None:
         """Record a candidate's evaluation, or its failure (the search goes on; a portfolio failure leaves its
-        family out)."""
+        family out). A candidate underdetermined by a sparse target's measurements (:class:`Underdetermined`) is
+        left out alone, unscored and so not counted in the budget, and its family is named once with why."""
+        if isinstance(ev, Underdetermined):
+            trial.set_user_attr("fits", 0)
+            trial.set_user_attr("error", f"left out: {ev}")
+            self.study.tell(trial, state=optuna.trial.TrialState.FAIL)
+            if cand.family not in self.underdetermined:
+                self.underdetermined.add(cand.family)
+                self.say(f"automl: {space.describe(cand.params)} left out: {ev}, where the target is measured"
+                         f" now and then (later {cand.family} candidates with as many are left out too)")
+            self._tick()
+            return
         if isinstance(ev, Exception):
             reason = f"{type(ev).__name__}: {' '.join(str(ev).split())}"[:400]
             trial.set_user_attr("error", reason)
