@@ -81,35 +81,6 @@ def test_automl_runs_on_a_sparse_drift():
     assert np.isfinite(result.job.summary_metrics("model")["rmse"])
 
 
-def test_the_final_choice_leaves_out_a_candidate_with_more_parameters_than_the_readings_identify():
-    import optuna
-
-    from thermodrift.core import splits
-    from thermodrift.core.automl import folds as inner, space
-    from thermodrift.core.automl.evaluate import Evaluation, Evaluator
-    from thermodrift.core.automl.search import MAX_PARAMETERS_PER_LABELLED_ROW, Entry, Search
-
-    def eligible(rec, n_parameters):
-        (outer,) = splits.ConditionHoldout(test_conditions=["4000"], train_on="others").folds(rec)
-        ev = Evaluator(rec, outer.train, ["disp_z_um"], inner.inner_folds(rec, outer.train, 2))
-        said = []
-        search = Search(ev, optuna.create_study(), Settings(families=["mlr"]), said.append, progress=False)
-        cand = space.Candidate({"model": "mlr", "model_params": {}, "selector": "all", "selector_params": {},
-                                "features": None})
-        small = Entry(0, cand, Evaluation([1.0, 1.0], {}, 1.0, costs={"n_parameters": 5.0}), phase="portfolio")
-        big = Entry(1, space.Candidate({**cand.params, "model": "bp"}),
-                    Evaluation([0.5, 0.5], {}, 0.5, costs={"n_parameters": n_parameters}), phase="portfolio")
-        return ev.labelled, [e.number for e in search._eligible([small, big])], said
-
-    labelled, _, _ = eligible(sparse_tiny(), 0.0)
-    n_parameters = MAX_PARAMETERS_PER_LABELLED_ROW * labelled + 1.0
-    _, kept, said = eligible(sparse_tiny(), n_parameters)
-    assert kept == [0] and len(said) == 1
-    assert "(bp) left out of the final choice" in said[0] and f"({labelled} rows with the target measured)" in said[0]
-    dense_labelled, kept, said = eligible(tiny_recording(), n_parameters)  # every row measured: kept
-    assert dense_labelled > labelled and kept == [0, 1] and not said
-
-
 def test_a_sparse_target_caps_parameters_by_its_measurements_and_is_not_tuned():
     rec = tiny_recording(seed=0)
     data = rec.data.copy()

@@ -7,9 +7,8 @@ the more trials TPE compares): it enters the final choice only when it beats the
 than one standard error of their per-fold differences (:func:`earns_its_place`; with one fold, never). The final
 choice is the average of the candidates the folds cannot tell from the best by that same rule, each weighted by
 the inverse of its mean squared fold RMSE (:meth:`Search._hedge`, :func:`inverse_mse_weights`) when there are two
-or more, else the greedy ensemble when it wins, else the best pipeline. A candidate with more fitted parameters
-than :data:`MAX_PARAMETERS_PER_LABELLED_ROW` per labelled training row (a drift measured now and then) takes no
-part in the final choice (:meth:`Search._identifiable`).
+or more, else the greedy ensemble when it wins, else the best pipeline. On a sparse target (a drift measured now
+and then) a candidate with more fitted parameters than readings never gets a score (:mod:`.evaluate`).
 
 The budget counts fits (one candidate costs one fit per inner fold), so a run is deterministic for a seed;
 ``timeout_s`` adds a wall-clock limit, which makes the result depend on the machine's load. Every candidate is
@@ -39,10 +38,6 @@ from thermodrift.core.automl.folds import aggregate
 
 PHASE_ATTR = "automl.phase"
 PROMOTE_WITHIN = 1.5  # a network is trained longer only while its score is within this factor of the best
-# The final choice leaves out a candidate with more than this many fitted parameters per labelled training row:
-# a drift measured every 2 h over a day gives a dozen readings, on which a network of hundreds to thousands of
-# weights scores on inner folds of 5-9 readings by chance, not by what it learnt.
-MAX_PARAMETERS_PER_LABELLED_ROW = 10
 
 
 @dataclass
@@ -341,7 +336,6 @@ class Search:
     def _eligible(self, ok: list[Entry]) -> list[Entry]:
         """The candidates the final choice (best pipeline and ensemble pool) draws from: every a-priori one
         (portfolio, promoted) and the TPE ones that earn their place against the best a-priori candidate."""
-        ok = self._identifiable(ok)
         prior = [e for e in ok if e.phase != "tpe" and self._full(e)]
         if not prior:
             return ok
@@ -350,19 +344,6 @@ class Search:
             self.say(f"automl: {len(ok) - len(keep)} TPE candidate(s) left out of the final choice: tuned on the "
                      f"folds that score them, they do not beat trial {ref.number} ({space.describe(ref.candidate.params)}"
                      f") by more than one standard error across the folds")
-        return keep
-
-    def _identifiable(self, ok: list[Entry]) -> list[Entry]:
-        """``ok`` without the candidates whose fitted parameters exceed :data:`MAX_PARAMETERS_PER_LABELLED_ROW` per
-        labelled training row (said in one line; all of ``ok`` when that would leave none)."""
-        cap = MAX_PARAMETERS_PER_LABELLED_ROW * self.ev.labelled
-        keep = [e for e in ok if not e.evaluation.costs.get("n_parameters", 0) > cap]
-        if not keep or len(keep) == len(ok):
-            return ok
-        names = sorted({e.candidate.family for e in ok if e not in keep})
-        self.say(f"automl: {len(ok) - len(keep)} candidate(s) ({', '.join(names)}) left out of the final choice: more "
-                 f"than {MAX_PARAMETERS_PER_LABELLED_ROW} fitted parameters per labelled training row "
-                 f"({self.ev.labelled} rows with the target measured)")
         return keep
 
     def _predictions(self, e: Entry) -> list[np.ndarray]:
