@@ -11,9 +11,9 @@ A sparse target (a drift measured now and then: measured on fewer than half of t
 candidate's parameters by its measurements: each probe reading is one equation, so a pipeline whose fitted model has
 more trainable parameters than the outer training part has measured rows (the rows its refit will learn from) is
 underdetermined there, and its inner scores, on folds of a handful of readings, cannot show it; it is left out
-(:class:`Underdetermined`, raised after its first fold's fit, :func:`free_parameters`). A densely measured target is not capped: its rows are
-a time series sampled far faster than its dynamics, not independent equations, and its networks are fitted by early
-stopping on them.
+(:class:`Underdetermined`, raised after its first fold's fit, :func:`free_parameters`). A densely measured target
+is not capped: its rows are a time series sampled far faster than its dynamics, not independent equations, and its
+networks are fitted by early stopping on them.
 """
 
 from __future__ import annotations
@@ -116,9 +116,11 @@ class Evaluator:
             started = time.perf_counter()
             model = self.pipeline(params).fit(self.X.iloc[fold.train], self.y.iloc[fold.train])
             fit_s = time.perf_counter() - started
-            if self.max_parameters is not None and k == 0 and free_parameters(model) > self.max_parameters:
-                raise Underdetermined(f"{free_parameters(model)} parameters, more than the {self.max_parameters} "
-                                      "measured rows of the training part")
+            if self.max_parameters is not None and k == 0:
+                count = free_parameters(model)
+                if count > self.max_parameters:
+                    raise Underdetermined(f"{count} parameters, more than the {self.max_parameters} measured rows "
+                                          "of the training part")
             pred = predict_rows(model, self.X, fold.test, allowed=self.outer_train)
             if not np.isfinite(pred).all():
                 raise ValueError("non-finite predictions on an inner fold")

@@ -112,9 +112,15 @@ class CompiledNetwork:
         """u_k for every sample: (K, n_inputs)."""
         f = scenario.frame
         cols = [np.ones(len(f)), f["ambient_degC"].to_numpy(), f["coolant_inlet_degC"].to_numpy()]
+        return np.column_stack([*cols, *self.signal_inputs(scenario).T])
+
+    def signal_inputs(self, scenario: Scenario) -> np.ndarray:
+        """The signal-driven sources' power (W) for every sample: (K, len(signal_sources)), the inputs' last
+        columns."""
+        f = scenario.frame
         signals = {c: f[c].to_numpy() for c in ("cutting_power_W", "axis_velocity_mm_min")}
-        cols += [np.asarray(s.signal_power(signals), dtype=float) for s in self.signal_sources]
-        return np.column_stack(cols)
+        return np.column_stack([np.asarray(s.signal_power(signals), dtype=float) for s in self.signal_sources]
+                               or [np.zeros((len(f), 0))])
 
     def step(self, speed_rpm: float, coolant_flow: float, dt_s: float, method: str) -> tuple[np.ndarray, np.ndarray]:
         """Cached (Φ, Γ) for one level and step size."""

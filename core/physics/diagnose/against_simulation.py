@@ -8,10 +8,10 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  recording's temperature and displacement channels it gives
     noise        per channel from the second differences of measured minus simulated (robust scale)
     null         the calibration null per channel (:func:`.sim_forms.null_design`): offset, simulated excess and
-                 its lags, lagged speed heat where the simulation is heated, and the simulation's own response to every recorded input it
-                 responds to with a lag of it, so a driver the simulation has with a wrong gain or time
-                 constant is absorbed, not named. Fitted on the rows before the final block, with a small ridge
-                 on its columns (:data:`NULL_RIDGE`): the calibrated simulation, the ``baseline`` of the report
+                 its lags, lagged speed heat where the simulation is heated, and the simulation's own response
+                 to every recorded input it responds to with a lag of it, so a driver the simulation has with a
+                 wrong gain or time constant is absorbed, not named. Fitted on the rows before the final block,
+                 with a ridge on its columns (:data:`NULL_RIDGE`): the calibrated simulation, the ``baseline``
     test         every registered mechanism declaring ``simulation_form`` (:mod:`.sim_forms`): its driver through
                  each of its lags, a gain per channel it reaches, its sign on temperature channels; sensor lag
                  as a fixed form (each temperature channel reads the simulation plus its correction through a
@@ -174,18 +174,18 @@ def prepare(recording, simulation, simulated_inputs: list[str] | None = None) ->
     temps = [j for j, k in enumerate(kinds) if k == "temperature"]
     amb = inputs.inputs.get("ambient", np.zeros(len(t)))
     amb_excess = (excess[:, temps].mean(axis=1) - amb) if temps else excess[:, 0] / max(np.ptp(excess[:, 0]), 1e-9)
-    heated = sim_forms.responses(inputs, excess, sigma).get("speed", np.zeros(len(channels), dtype=bool))
+    found = sim_forms.responses(inputs, excess, sigma)  # one pass: the heat rule and the inputs it responds to
     if simulated_inputs is None:
-        simulated, detected = sim_forms.detect_inputs(inputs, excess, sigma), True
+        simulated, detected = sim_forms.detect_inputs(found), True
     else:
         unknown = [r for r in simulated_inputs if r not in sim_forms.INPUT_ROLES]
         if unknown:
             raise InputError(f"unknown simulated input {unknown[0]!r}",
                              hint=f"use roles among {', '.join(sim_forms.INPUT_ROLES)}")
         simulated, detected = [r for r in simulated_inputs if r in inputs.inputs], False
-    nulls = [sim_forms.null_design(inputs, excess[:, j], simulated, bool(heated[j])) for j in range(len(channels))]
+    nulls = [sim_forms.null_design(inputs, excess[:, j], simulated, bool(found["speed"][j])) for j in range(len(channels))]
     return Problem(recording, channels, kinds, measured, sim, sigma, fit_rows, _folds(recording, fit_rows), inputs,
-                   excess, amb_excess, nulls, simulated, detected, heated)
+                   excess, amb_excess, nulls, simulated, detected, found["speed"])
 
 
 def _solve(X: np.ndarray, y: np.ndarray, rows: np.ndarray, sign: int = 0, first: int = 0) -> np.ndarray:

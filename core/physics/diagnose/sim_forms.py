@@ -30,9 +30,9 @@ speed_convection    −r^0.8 · (simulated excess over the air): cooling that gr
 heat_feedback       r^1.5 · lag(r^1.5, 15 min): heat that grows with the heat already put in
 slow_heat           lag(r^1.5, 1 h): heat through a further, slow store (the form's lags act on it)
 bending             r^1.5 and its 4 h lag (the form's lags act on both; their difference is the band-pass of a
-                    gradient across the structure, the far side catching up): a drift the spindle's heat drives through a temperature
-                    difference across the structure, on a drift channel the simulation does not move with that
-                    heat (a path the simulation lacks, not an error of one it has)
+                    gradient across the structure, the far side catching up): a drift the spindle's heat drives
+                    through a temperature difference across the structure, on a drift channel the simulation
+                    does not move with that heat (a path the simulation lacks, not an error of one it has)
 sensor_lag          a fixed form, not a regressor: each temperature channel read through a first-order lag
                     of the simulation plus its correction (the form's lags are the lags tried per channel)
 =================== ======================================================================================
@@ -188,13 +188,11 @@ def responses(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> di
     return out
 
 
-def detect_inputs(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> list[str]:
-    """The recorded inputs the simulation responds to on any channel (:func:`responses`), read from its traces
-    when the user does not say. Inputs that move with the speed (cutting while running) can be counted when they
-    do not drive the simulation: the mechanisms they drive are then reported nested, never named wrongly."""
-    if not inputs.inputs:
-        return []
-    found = responses(inputs, excess, spans_sigma)
+def detect_inputs(found: dict[str, np.ndarray]) -> list[str]:
+    """The recorded inputs the simulation responds to on any channel (``found``: :func:`responses`), read from its
+    traces when the user does not say. Inputs that move with the speed (cutting while running) can be counted
+    when they do not drive the simulation: the mechanisms they drive are then reported nested, never named
+    wrongly."""
     return [r for r in INPUT_ROLES if r in found and found[r].any()]
 
 

@@ -62,8 +62,7 @@ class NetworkModel:
         if not self.channels:
             raise ValueError("no temperature sensor or displacement sensor of the network is in the recording")
         u = np.column_stack([comp.inputs(scen), (speed / network.reference_speed_rpm) ** 2])
-        f = scen.frame
-        self._signals = {c: f[c].to_numpy() for c in ("cutting_power_W", "axis_velocity_mm_min")}
+        self._scenario = scen
         self._signal_at = u[:, SIGNALS_FROM:comp.n_inputs]  # the signal sources' power (W) at the network's own values
         y = recording.data[self.channels].to_numpy(dtype=float)
         self.data = Series.of(scen.time_s / HOUR_S, u, y, level)
@@ -132,13 +131,9 @@ class NetworkModel:
         values): a source's parameter (a cutting fraction, a drive's power) scales its input, and the inputs of
         the series stay fixed. The least-squares scale, exact for the built-in sources (linear in their
         parameters)."""
-        out = np.ones(len(comp.signal_sources))
-        for i, src in enumerate(comp.signal_sources):
-            ref = self._signal_at[:, i]
-            energy = float(ref @ ref)
-            if energy > 0:
-                out[i] = float(np.asarray(src.signal_power(self._signals), dtype=float) @ ref) / energy
-        return out
+        now, ref = comp.signal_inputs(self._scenario), self._signal_at
+        energy = (ref * ref).sum(axis=0)
+        return np.where(energy > 0, (now * ref).sum(axis=0) / np.where(energy > 0, energy, 1.0), 1.0)
 
 
 OFF_REACH = 1e-3   # how much lower a positive parameter's low bound goes in a candidate fit (:func:`reaching_off`)
@@ -199,8 +194,8 @@ def select_mechanisms(recording, *, seed: int = 0, alpha: float = 0.01, max_roun
     divided by the baseline's misfit (:func:`.fit.misfit_scale`: innovations correlated over hours, as a
     structurally wrong baseline leaves them, count as fewer independent samples). A candidate gaining less than
     ``NESTED_GAIN`` is *nested* (its best fit is the model it extends). A mechanism acting at once (``at_once``:
-    the centrifugal growth) is skipped on a record sampled slower than ``FAST_HEATING_S``. The accepted one is then refitted with every
-    parameter free, and the next round starts from it. A mechanism's parameters are named ``<mechanism>.<name>``
+    the centrifugal growth) is skipped on a record sampled slower than ``FAST_HEATING_S``. The accepted one is
+    then refitted with every parameter free, and the next round starts from it. A mechanism's parameters are named ``<mechanism>.<name>``
     in the model (two mechanisms may both declare ``G_W_K``). Returns the report (JSON-ready): ``baseline``,
     ``selection_path`` (per step ``parent_loglik`` and its ``candidates``: mechanism, place, loglik and
     ``off_loglik``, the likelihood where it is switched off), ``findings`` (mechanism, place, parameters, lr, df, p_value), ``rejected``
