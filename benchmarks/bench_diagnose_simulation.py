@@ -77,7 +77,8 @@ def run_case(generator: str, seed: int, hidden: str | None, error: float, struct
             "samples": len(rec), "cut": 1 - after / before if before > 0 else 0.0, "cut_channel": ch,
             "share": gen.share, "status": mine.get("status", ""), "reason": mine.get("reason", ""),
             "simulated_inputs": d.adequacy["simulated_inputs"],
-            "tested": [{k: m[k] for k in ("mechanism", "share", "folds_improved", "size_noise_units", "passed")}
+            "tested": [{k: m[k] for k in ("mechanism", "share", "gain", "folds_improved", "fold_share",
+                                                "size_noise_units", "passed", "reason")}
                        for m in d.adequacy["mechanisms"] if m["status"] == "tested"]}
 
 

@@ -81,7 +81,7 @@ class GreyBox(ThermalModel):
 
     @classmethod
     def get_test_params(cls):
-        return [{"structure": "Ti", "starts": 1, "maxiter": 120}]
+        return [{"structure": "Ti", "starts": 1, "maxiter": 90}]
 
     @classmethod
     def search_space(cls):

@@ -593,7 +593,8 @@ def _adequacy(p: Problem, base: np.ndarray, null_sse: np.ndarray, tested: list[T
                     "residual_ar_sum": float(np.dot(rf[1:], rf[:-1]) / max(np.dot(rf, rf), 1e-300))}
     listing = [{"mechanism": t.mechanism, "status": "tested", "share": round(t.share, 4), "gain": round(t.gain, 4),
                 "folds_improved": int((t.fold_gain > 0).sum()), "size_noise_units": round(t.size, 3),
-                "passed": t.passed, "reason": t.reason} for t in tested]
+                "fold_share": [round(float(v), 4) for v in t.fold_share], "passed": t.passed, "reason": t.reason}
+               for t in tested]
     return {"mode": "simulation", "channels": chans, "structural": False, "simulated_inputs": p.simulated,
             "simulated_inputs_from": "traces" if p.detected else "user",
             "mechanisms": listing + [{"mechanism": s["mechanism"], "status": s["status"], "reason": s["reason"]}
