@@ -218,6 +218,18 @@ def test_the_decision_is_the_median_fold_gain_robust_to_one_fold_and_the_final_b
     assert not _tested([0.9] * (k - 1) + [-0.1] * (n - k) + [0.9]).consistent
 
 
+def test_a_small_gain_on_every_fold_counts_on_the_drift_only():
+    n = against_simulation.FOLDS + 1
+    small = _tested([0.2] * n)
+    assert not small.consistent and small.steady
+    assert small.passes(on_drift=True) and not small.passes(on_drift=False)
+    # one fold below the steady share, or a correction below the size bar, and it does not pass
+    assert not _tested([0.2] * (n - 1) + [0.02]).passes(on_drift=True)
+    low = _tested([0.2] * n)
+    low.size = against_simulation.SIZE_MIN / 2
+    assert not low.passes(on_drift=True)
+
+
 def test_a_spindle_side_heat_term_keeps_its_physical_sign_on_the_drift():
     """The drift's simulated sense for the spindle's heat is read from the simulation (a z that falls as the
     spindle warms has sense −1), and the spindle-side forms declare that their sign holds on the drift."""
@@ -235,3 +247,21 @@ def test_a_spindle_side_heat_term_keeps_its_physical_sign_on_the_drift():
     assert np.allclose(sim_forms.surfaces(inputs, excess, kinds, 1, drift[1])[0], 0.4 * t)
     for mid in ("speed_dependent_convection", "preload_feedback"):
         assert sim_forms.form_of(registry.default().get("mechanism", mid).factory)["drift_sense"] is True
+
+
+def test_the_semi_synthetic_regression_simulation_reproduces_a_drift_its_temperatures_explain():
+    from support import load_file
+    from thermodrift.core.testing.data import tiny_recording
+
+    bench = load_file(ROOT / "benchmarks" / "bench_diagnose_simulation.py")
+    rec = tiny_recording()
+    temps = [c for c in rec.channels if rec.channels[c].role == "temperature"]
+    drift = [c for c in rec.channels if rec.channels[c].role == "displacement"]
+    rec.data[drift[0]] = 3.0 * rec.data[temps[0]] - 2.0 * rec.data[temps[-1]] + 1.5
+    sim = bench.regression_simulation(rec)
+    assert list(sim.columns) == drift and np.allclose(sim.index, rec.time_s)
+    assert np.abs(sim[drift[0]].to_numpy() - rec.data[drift[0]].to_numpy()).max() < 0.05
+    # a drift the temperatures do not explain (noise) is not reproduced
+    rec.data[drift[1]] = np.random.default_rng(0).normal(0.0, 1.0, len(rec.time_s))
+    residual = bench.regression_simulation(rec)[drift[1]].to_numpy() - rec.data[drift[1]].to_numpy()
+    assert residual.std() > 0.5

@@ -59,7 +59,7 @@ from thermodrift.core.physics.calibration import calibrate
 from thermodrift.core.physics.diagnose import adequacy, rule, screening, selection
 from thermodrift.core.physics.diagnose.noise import NoiseModel, benjamini_hochberg, round_level
 from thermodrift.core.physics.diagnose.selection import EQUIVALENT
-from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows
+from thermodrift.core.physics.diagnose.windows import condition_blocks, driver_windows, locate
 from thermodrift.core.physics.network import Network
 from thermodrift.core.physics.scenarios import Scenario
 from thermodrift.core.recording import Window
@@ -379,21 +379,7 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
     disp = [j for j, k in enumerate(kinds) if k == "displacement"]
     gain = ((measured - before) / sigma) ** 2 - ((measured - after) / sigma) ** 2
     use = disp if np.abs(gain[:, disp]).sum() > 0.1 * np.abs(gain).sum() else list(range(len(channels)))
-    where = []
-    for j in use:
-        g = gain[:, j]
-        total = g[g > 0].sum()
-        if total <= 0:
-            continue
-        for w in windows:
-            mask = w.mask(t)
-            if mask.sum() < 2:
-                continue
-            share = float(g[mask].sum() / total)
-            excess = share / (mask.mean())
-            where.append((share * min(excess, 10.0), {"channel": channels[j], "start_s": w.start_s,
-                                                       "end_s": w.end_s, "window": w.name}))
-    where = [w for _, w in sorted(where, key=lambda x: -x[0])[:3]]
+    where = locate(t, gain, channels, use, windows)
     conf = float(inclusion.get(c.mechanism, 0.0))
     share = win.dsse_bal / screen.sse0_bal if screen.sse0_bal > 0 else 0.0
     label = fitted_label(win)

@@ -115,3 +115,25 @@ def condition_blocks(recording, rows: np.ndarray, min_blocks: int = 4) -> np.nda
     if run.max(initial=0) + 1 >= min_blocks:
         return run
     return np.minimum((np.arange(len(rows)) * min_blocks) // max(len(rows), 1), min_blocks - 1)
+
+
+def locate(time_s: np.ndarray, gain: np.ndarray, channels: list[str], use: list[int], windows: list[Window],
+           top: int = 3) -> list[dict]:
+    """Up to ``top`` (channel, window) where a correction removes most of the misfit: ``gain`` (samples,
+    channels) is the squared error removed per sample; each window of a channel in ``use`` scores its share of
+    that channel's removed error times its excess over the window's length share (at most 10). Dicts with
+    ``channel``, ``start_s``, ``end_s`` (s) and ``window`` (its name), best first."""
+    out = []
+    for j in use:
+        g = gain[:, j]
+        total = g[g > 0].sum()
+        if total <= 0:
+            continue
+        for w in windows:
+            mask = w.mask(time_s)
+            if mask.sum() < 2:
+                continue
+            share = float(g[mask].sum() / total)
+            out.append((share * min(share / mask.mean(), 10.0),
+                        {"channel": channels[j], "start_s": w.start_s, "end_s": w.end_s, "window": w.name}))
+    return [w for _, w in sorted(out, key=lambda x: -x[0])[:top]]
