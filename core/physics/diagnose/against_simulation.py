@@ -110,7 +110,7 @@ class Tested:
 
     def passes(self, on_drift: bool) -> bool:
         """Consistent (or steady, when judged on the drift), of :data:`SIZE_MIN` and within :data:`GUARD`."""
-        return (self.consistent or (on_drift and self.steady)) and self.size >= SIZE_MIN and self.guard >= -GUARD
+        return bool((self.consistent or on_drift and self.steady) and self.size >= SIZE_MIN and self.guard >= -GUARD)
 
     @property
     def fold_share(self) -> np.ndarray:
