@@ -25,7 +25,7 @@ simulation cannot produce and one mechanism's declared form can. Pipeline (:func
                  judged channels it removes, with a median over the folds of :data:`GAIN_MIN` (a paired
                  comparison of null and null + mechanism fold by fold, robust to the one fold whose conditions
                  the others lack; :data:`GAIN_ALL` when every fold is better; judged on the drift, any median
-                 when every fold is better by :data:`STEADY`), consistency (at least
+                 when every fold is better by :data:`STEADY`, ranked after every other), consistency (at least
                  :data:`IMPROVED` folds better, the final block among them) and a size in noise units
                  (:data:`SIZE_MIN`); the temperature channels it reaches besides may not lose more than
                  :data:`GUARD`. One judged on the drift comes first. A rival judged alike (passing or not) with
@@ -408,8 +408,8 @@ def diagnose_simulation(recording, simulation, *, simulated_inputs: list[str] | 
         t.passed = t.passes(on_drift)
         t.reason = _why(t, on_drift)
     passing = sorted([t for t in tested if t.passed], key=lambda t: -t.gain)
-    # a mechanism judged on the drift comes first (the drift is what a compensation predicts)
-    pool = [t for t in passing if p.kinds[t.judged[0]] == "displacement"] or passing
+    main = [t for t in passing if t.consistent]  # the drift first (what a compensation predicts), steady last
+    pool = [t for t in main if p.kinds[t.judged[0]] == "displacement"] or main or passing
     win = pool[0] if pool else None
     # a rival: any other mechanism judged alike explaining as much held out, passing or not (one failing only on
     # its folds is still an explanation the data does not rule out); a winner judged on the temperatures alone
