@@ -33,6 +33,7 @@ Run::
     python benchmarks/bench_multirun.py                       # two tasks: fd seed 0 last day, lumped seed 1 hot day
     python benchmarks/bench_multirun.py --seeds 0 1 2 3 --kinds last hot   # the development set (8 tasks)
     python benchmarks/bench_multirun.py --sealed              # the sealed set (8 tasks), once
+    python benchmarks/bench_multirun.py --seeds 0 1 2 3 --no-speed   # the same machines logged without speed
 """
 
 from __future__ import annotations
@@ -128,11 +129,15 @@ def held_day(hall: dict[str, float], kind: str) -> str:
     return max(days[:-1], key=hall.get)
 
 
-def task_spec(generator: str, seed: int, kind: str, days: int, folder: Path) -> tuple[JobSpec, dict]:
-    """The recording written to ``folder`` (table + manifest) and the automl job spec holding out the task's day."""
+def task_spec(generator: str, seed: int, kind: str, days: int, folder: Path,
+              speed: bool = True) -> tuple[JobSpec, dict]:
+    """The recording written to ``folder`` (table + manifest) and the automl job spec holding out the task's day;
+    ``speed`` False: the manifest leaves the spindle speed out (a machine logged without it)."""
     table, manifest, hall = multiday(generator, seed, days)
+    if not speed:
+        manifest["channels"].pop("spindle_rpm")
     folder.mkdir(parents=True, exist_ok=True)
-    stem = folder / f"{generator}_{seed}_d{days}"
+    stem = folder / f"{generator}_{seed}_d{days}{'' if speed else '_nospeed'}"
     table.to_csv(stem.with_suffix(".csv"), index=False, float_format="%.4f")
     stem.with_suffix(".yaml").write_text(yaml.safe_dump(manifest, sort_keys=False), encoding="utf-8")
     day = held_day(hall, kind)
@@ -145,8 +150,8 @@ def task_spec(generator: str, seed: int, kind: str, days: int, folder: Path) -> 
 
 def run_task(generator: str, seed: int, kind: str, args) -> dict:
     """automl, the hindsight families and FLAML on one task (see the module docstring)."""
-    name = f"{generator}{seed}_{kind}"
-    spec, info = task_spec(generator, seed, kind, args.days, args.cache / "recordings")
+    name = f"{generator}{seed}_{kind}{'' if args.speed else '_nospeed'}"
+    spec, info = task_spec(generator, seed, kind, args.days, args.cache / "recordings", args.speed)
     recording = registry.create("dataset", spec.dataset, **spec.dataset_params)
     print(f"{name}: {len(recording.data)} rows, {len(info['hall_degC'])} days, holding out {info['day']} (hall "
           f"{info['hall_degC'][info['day']]:.1f} °C; the others "
@@ -232,6 +237,8 @@ def main() -> None:
     parser.add_argument("--hindsight-trials", type=int, default=0, help="TPE trials per family for the hindsight")
     parser.add_argument("--cache", type=Path, default=Path(".bench_cache/multirun"), help="per-task results (JSON)")
     parser.add_argument("--json", type=Path, help="write every task's result here")
+    parser.add_argument("--no-speed", dest="speed", action="store_false",
+                        help="leave the spindle speed out of the manifest (a machine logged without it)")
     args = parser.parse_args()
     if args.sealed:
         tasks = [(generator_of(s), s, k) for s in range(SEALED_FROM, SEALED_FROM + 4) for k in ("last", "hot")]
@@ -244,7 +251,8 @@ def main() -> None:
     args.cache.mkdir(parents=True, exist_ok=True)
     results = []
     for generator, seed, kind in tasks:
-        path = args.cache / f"{generator}{seed}_{kind}-d{args.days}-t{args.hindsight_trials}.json"
+        path = args.cache / (f"{generator}{seed}_{kind}{'' if args.speed else '_nospeed'}-d{args.days}"
+                             f"-t{args.hindsight_trials}.json")
         if path.exists():
             results.append(json.loads(path.read_text(encoding="utf-8")))
         else:

@@ -32,3 +32,15 @@ def test_each_day_is_a_cold_start_read_back_as_its_own_run(tmp_path):
     (fold,) = splits.make_split(spec.split, **spec.split_params).folds(rec)
     assert set(runs[fold.test]) == {info["day"]} and set(runs[fold.train]) == set(hall) - {info["day"]}
     assert len(inner.inner_folds(rec, fold.train)) == 2  # one inner fold per other training day
+
+
+def test_a_task_without_speed_reads_back_without_a_speed_channel_and_leaves_out_what_needs_one(tmp_path):
+    from thermodrift.core.automl import space
+
+    bench = load_file(BENCH)
+    spec, _ = bench.task_spec("fd", 0, "last", 2, tmp_path, speed=False)
+    rec = registry.create("dataset", spec.dataset, **spec.dataset_params)
+    roles = {ch.role for ch in rec.channels.values()}
+    assert "speed" not in roles and "spindle_rpm" not in rec.channels
+    can = {f.name for f in space.families(roles=roles)}
+    assert "mlr" in can and "lptn" not in can and "lptn_hybrid" not in can
