@@ -110,7 +110,8 @@ class Tested:
 
     def passes(self, on_drift: bool) -> bool:
         """Consistent (or steady, when judged on the drift), of :data:`SIZE_MIN` and within :data:`GUARD`."""
-        return bool((self.consistent or on_drift and self.steady) and self.size >= SIZE_MIN and self.guard >= -GUARD)
+        return bool((self.consistent or on_drift and self.steady) and self.size >= SIZE_MIN
+                    and self.guard >= -GUARD)
 
     @property
     def fold_share(self) -> np.ndarray:
@@ -541,8 +542,7 @@ def _why(t: Tested, on_drift: bool) -> str:
 
 def _where(p: Problem, t: Tested) -> list[dict]:
     """Up to three (channel, window) of the judged channels where the correction removes most of the misfit."""
-    after = p.measured - t.fitted
-    gain = (after + t.correction) ** 2 - after ** 2
+    gain = (p.measured - t.fitted + t.correction) ** 2 - (p.measured - t.fitted) ** 2
     return locate(p.recording.time_s, gain, p.channels, t.judged, driver_windows(p.recording))
 
 
