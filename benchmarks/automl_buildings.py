@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import time
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +29,8 @@ from thermodrift.core.automl import job as automl_job
 from thermodrift.core.automl.search import Settings
 from thermodrift.core.metrics import rmse
 from thermodrift.core.study import JobSpec
+
+import flaml_baseline  # the comparison, beside this script (bench_automl.py puts the folder on the path)
 
 HOUSES = (1, 2, 3)
 HOLDOUT_H = 336
@@ -47,25 +48,16 @@ def spec(house: int, seed: int) -> JobSpec:
 
 def flaml(recording, fold, seconds: float, seed: int) -> dict | None:
     """FLAML's held-out RMSE (K) on the raw inputs and with the target lagged by each horizon; None without it."""
-    try:
-        from flaml import AutoML
-    except ImportError:
+    if not flaml_baseline.available():
         return None
     raw = recording.data[INPUTS].to_numpy(float)
     y = recording.data[TARGET].to_numpy(float)
     steps = {h: horizons.steps(h, recording.sampling_interval_s) for h in HORIZONS_H}
     variants = {"raw": raw, **{f"+lag{h}h": np.column_stack([raw, np.concatenate([np.full(k, y[0]), y[:-k]])])
                                for h, k in steps.items()}}
-    out = {}
-    for name, X in variants.items():
-        model = AutoML()
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            model.fit(X[fold.train], y[fold.train], task="regression", metric="rmse", n_jobs=1,
-                      time_budget=max(1.0, seconds / len(variants)), eval_method="holdout", split_type="time",
-                      split_ratio=0.25, seed=seed, verbose=0)
-        out[name] = rmse(model.predict(X[fold.test]), y[fold.test])
-    return out
+    return {name: rmse(flaml_baseline.fit_predict(X[fold.train], y[fold.train], X[fold.test],
+                                                  seconds / len(variants), seed), y[fold.test])
+            for name, X in variants.items()}
 
 
 def run_house(house: int, budget: int, families: list[str], seed: int, greybox: dict | None) -> dict:

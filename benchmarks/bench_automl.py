@@ -66,6 +66,7 @@ from thermodrift.core.metrics import evaluate
 from thermodrift.core.study import INPUT_ROLES, Job, JobSpec
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import flaml_baseline  # noqa: E402 - FLAML, the comparison (one home for both benchmarks)
 import independent  # noqa: E402 - the independent generators next to this script (no code shared with the library)
 
 FL = {"dataset": "fl_thermal", "targets": ["ch3(um)"]}
@@ -203,9 +204,7 @@ def hindsight(spec: JobSpec, recording, families, tpe: int) -> dict:
 
 def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
     """FLAML on raw inputs and on the default feature stage, ``seconds`` in all, one core; None without FLAML."""
-    try:
-        from flaml import AutoML
-    except ImportError:
+    if not flaml_baseline.available():
         return None
     (fold,) = splits.make_split(spec.split, seed=spec.seed, **spec.split_params).folds(recording)
     targets = study.targets_of(recording, spec.targets)
@@ -221,13 +220,8 @@ def flaml_scores(spec: JobSpec, recording, seconds: float) -> dict | None:
         pred = np.zeros((len(fold.test), len(targets)))
         for k, target in enumerate(targets):
             y = recording.data[target].to_numpy(dtype=float)
-            automl = AutoML()
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                automl.fit(X[fold.train], y[fold.train], task="regression", metric="rmse", n_jobs=1,
-                           time_budget=max(1.0, seconds / (2 * len(targets))), eval_method="holdout",
-                           split_type="time", split_ratio=0.25, seed=spec.seed, verbose=0)
-            pred[:, k] = automl.predict(X[fold.test])
+            pred[:, k] = flaml_baseline.fit_predict(X[fold.train], y[fold.train], X[fold.test],
+                                                    seconds / (2 * len(targets)), spec.seed)
         out[name] = evaluate(recording.data[targets].iloc[fold.test], pred)["mean"]["rmse"]
     return out
 
