@@ -265,3 +265,26 @@ def test_the_semi_synthetic_regression_simulation_reproduces_a_drift_its_tempera
     rec.data[drift[1]] = np.random.default_rng(0).normal(0.0, 1.0, len(rec.time_s))
     residual = bench.regression_simulation(rec)[drift[1]].to_numpy() - rec.data[drift[1]].to_numpy()
     assert residual.std() > 0.5
+
+
+def test_a_small_response_to_the_hall_air_is_read_from_the_traces_and_cutting_that_follows_the_speed_is_not():
+    from thermodrift.core.physics.diagnose import sim_forms
+
+    t = np.arange(0.0, 30 * 3600.0, 120.0)
+    rng = np.random.default_rng(0)
+    r = np.repeat(rng.choice([0.0, 0.4, 0.7, 1.0], len(t) // 90 + 1), 90)[:len(t)]
+    hvac = np.zeros(len(t))  # the hall's thermostat and doors: an Ornstein-Uhlenbeck wander of about 0.4 K
+    for i in range(1, len(t)):
+        hvac[i] = hvac[i - 1] * np.exp(-120.0 / 3600.0) + rng.normal(0.0, 0.1)
+    air = 1.5 * np.sin(2 * np.pi * t / 86400.0) + hvac
+    cutting = 3.0 * r + 0.2 * (r > 0)  # kW while running: it follows the programme
+    inputs = sim_forms.Inputs(t, r, {"ambient": air - air[0], "cutting_power": cutting - cutting[0]})
+    heat = inputs.lag(r ** sim_forms.HEAT_EXPONENT, 3600.0)
+    sigma = np.array([0.05])
+    # the simulation moves the drift with the spindle's heat (100 µm) and a little with the hall air (0.65 µm peak
+    # to peak: under 1 % of the range, 13 times the noise); it has no cutting heat
+    excess = (100.0 * heat + 0.2 * inputs.lag(air, 1800.0))[:, None]
+    found = sim_forms.responses(inputs, excess, sigma)
+    assert found["speed"][0] and sim_forms.detect_inputs(found) == ["ambient"]
+    # without the air path the hall air is not read as driving the simulation
+    assert sim_forms.detect_inputs(sim_forms.responses(inputs, (100.0 * heat)[:, None], sigma)) == []

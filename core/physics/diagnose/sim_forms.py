@@ -182,8 +182,9 @@ def responses(inputs: Inputs, excess: np.ndarray, spans_sigma: np.ndarray) -> di
         for d in drivers:
             without = rms_left([i for i in every if owner[i] != d])
             # the spindle's heat counts wherever the noise would not hide it: a heat path with a wrong gain
-            # moves a channel the simulation moves at all
-            floor = 0.0 if d == "speed" else RESPONDS * float(np.ptp(y))
+            # moves a channel the simulation moves at all; so does the hall air, which does not follow the
+            # programme (the floor keeps the speed's share from being read as an input that moves with it)
+            floor = 0.0 if d in ("speed", "ambient") else RESPONDS * float(np.ptp(y))
             out[d][j] = np.sqrt(max(without ** 2 - full ** 2, 0.0)) > max(floor, 0.5 * spans_sigma[j])
     return out
 
