@@ -251,7 +251,7 @@ def test_a_spindle_side_heat_term_keeps_its_physical_sign_on_the_drift():
 
 def test_the_semi_synthetic_regression_simulation_reproduces_a_drift_its_temperatures_explain():
     from support import load_file
-    from thermodrift.core.testing.data import tiny_recording
+    from thermodrift.testing.data import tiny_recording
 
     bench = load_file(ROOT / "benchmarks" / "bench_diagnose_simulation.py")
     rec = tiny_recording()
