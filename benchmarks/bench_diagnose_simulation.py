@@ -19,8 +19,8 @@ Semi-synthetic FL_THERMAL (``--fl``): the user's simulation is calibrated on the
 regression of each drift channel on the measured temperatures and their lags (``--fl-kind regression``, the
 default: it reproduces the plain drift to 0.4–0.7 µm RMS, as a calibrated model of the machine does) or the
 ``auto`` network run on the recorded inputs (``--fl-kind auto``: 3–11 µm RMS, a simulation missing most of the
-machine); the three plantings of :mod:`independent.fl_semi` (and their controls) are diagnosed against it. A planted effect counts as named when it is found on the planted recording and not
-on its control.
+machine); the three plantings of :mod:`independent.fl_semi` (and their controls) are diagnosed against it. A
+planted effect counts as named when it is found on the planted recording and not on its control.
 
 Seeds: development cases are seeds < 1000 (:func:`independent.case_list`); ``--sealed`` runs the sealed range
 from ``--sealed-base`` (default 23000, a fresh one; run once, at the end).
@@ -94,16 +94,12 @@ def regression_simulation(rec):
     plain machine (FL_THERMAL: 0.43–0.74 µm RMS against 2.7–11.4 µm for the ``auto`` network)."""
     import pandas as pd
 
+    from thermodrift.core.physics.sensors import first_order_lag
+
     temps = rec.data[[c for c in rec.channels if rec.channels[c].role == "temperature"]].to_numpy(float)
-    step = float(np.median(np.diff(rec.time_s)))
     cols = [np.ones(len(temps))]
     for x in (temps - temps[0]).T:
-        cols.append(x)
-        for tau in FL_LAGS_S:
-            a, y = np.exp(-step / tau), x.copy()
-            for i in range(1, len(y)):
-                y[i] = a * y[i - 1] + (1 - a) * x[i]
-            cols.append(y)
+        cols += [x] + [first_order_lag(x, rec.time_s, tau) for tau in FL_LAGS_S]
     X = np.column_stack(cols)
     X /= np.abs(X).max(axis=0)
     gram = X.T @ X

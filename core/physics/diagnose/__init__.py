@@ -407,15 +407,14 @@ def _finding(win, rivals, inclusion, screen, m, measured, before, after, sigma, 
             "parameters": {k: _round(v) for k, v in win.parameters.items()},
             "ci": {k: [_round(min(v[0], win.parameters[k])), _round(max(v[1], win.parameters[k]))]
                    for k, v in win.ci.items()},
-            "where": [{k: (round(v, 1) if isinstance(v, float) else v) for k, v in w.items() if k != "window"}
-                      for w in where],
+            **where,
             "evidence": evidence + ".",
             "test": test["test"], "statistic": round(statistic, 4), "dof": dof,
             "p_value": float(f"{p_value:.4g}"), "fdr_level": test["level"],
             "route": ("decisive held-out gain and blocks" if "decisive" in test
                       else "likelihood ratio, blocks and held-out gain"),
             "fixed": {k: _round(v) for k, v in win.fixed.items()}, "label": label,
-            "_place": c.options, "_shape": c.shape, "_windows": [w["window"] for w in where],
+            "_place": c.options, "_shape": c.shape,
             "_gain_share": share}
 
 

@@ -540,8 +540,8 @@ def _why(t: Tested, on_drift: bool) -> str:
     return text + ": " + "; ".join(fails)
 
 
-def _where(p: Problem, t: Tested) -> list[dict]:
-    """Up to three (channel, window) of the judged channels where the correction removes most of the misfit."""
+def _where(p: Problem, t: Tested) -> dict[str, list]:
+    """The finding's ``where`` and ``_windows`` (:func:`.windows.locate`) on its judged channels."""
     gain = (p.measured - t.fitted + t.correction) ** 2 - (p.measured - t.fitted) ** 2
     return locate(p.recording.time_s, gain, p.channels, t.judged, driver_windows(p.recording))
 
@@ -565,8 +565,7 @@ def _finding(p: Problem, t: Tested, null_sse: np.ndarray) -> dict[str, Any]:
             "parameters": {k: float(f"{v:.6g}") for k, v in t.params.items()},
             "ci": {k: [float(f"{min(v[0], t.params[k]):.6g}"), float(f"{max(v[1], t.params[k]):.6g}")]
                    for k, v in t.ci.items()},
-            "where": [{k: (round(v, 1) if k != "channel" else v) for k, v in w.items() if k != "window"}
-                      for w in where], "_windows": [w["window"] for w in where],
+            **where,
             "evidence": evidence + ".",
             "test": "median over held-out folds (the final block and contiguous condition blocks) of the share "
                     "of the calibrated simulation's misfit removed, with fold consistency and size in noise units",

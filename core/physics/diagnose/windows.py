@@ -118,11 +118,12 @@ def condition_blocks(recording, rows: np.ndarray, min_blocks: int = 4) -> np.nda
 
 
 def locate(time_s: np.ndarray, gain: np.ndarray, channels: list[str], use: list[int], windows: list[Window],
-           top: int = 3) -> list[dict]:
+           top: int = 3) -> dict[str, list]:
     """Up to ``top`` (channel, window) where a correction removes most of the misfit: ``gain`` (samples,
     channels) is the squared error removed per sample; each window of a channel in ``use`` scores its share of
-    that channel's removed error times its excess over the window's length share (at most 10). Dicts with
-    ``channel``, ``start_s``, ``end_s`` (s) and ``window`` (its name), best first."""
+    that channel's removed error times its excess over the window's length share (at most 10). A finding's
+    fields, best first: ``where`` ({``channel``, ``start_s``, ``end_s``}, times in s to 0.1 s) and ``_windows``
+    (the windows' names)."""
     out = []
     for j in use:
         g = gain[:, j]
@@ -134,6 +135,7 @@ def locate(time_s: np.ndarray, gain: np.ndarray, channels: list[str], use: list[
             if mask.sum() < 2:
                 continue
             share = float(g[mask].sum() / total)
-            out.append((share * min(share / mask.mean(), 10.0),
-                        {"channel": channels[j], "start_s": w.start_s, "end_s": w.end_s, "window": w.name}))
-    return [w for _, w in sorted(out, key=lambda x: -x[0])[:top]]
+            out.append((share * min(share / mask.mean(), 10.0), j, w))
+    best = sorted(out, key=lambda x: -x[0])[:top]
+    return {"where": [{"channel": channels[j], "start_s": round(float(w.start_s), 1), "end_s": round(float(w.end_s), 1)}
+                      for _, j, w in best], "_windows": [w.name for _, _, w in best]}
